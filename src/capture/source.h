@@ -1,0 +1,46 @@
+/// @file source.h
+/// @brief The one interface every depth source implements: recordings, synthetic scenes, cameras.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "core/depth_frame.h"
+#include "core/mesh.h"
+#include "core/status.h"
+
+namespace aoscan {
+
+/// A stream of depth frames. Not thread-safe: one thread reads it (the capture stage).
+class Source {
+ public:
+  virtual ~Source() = default;
+
+  /// Fills `frame` with the next frame and returns ok; or returns end_of_stream; or
+  /// corrupt_frame (this frame is skipped, the stream goes on; the message names the file and
+  /// frame); or bad_input / device_lost when the stream cannot go on. Never throws.
+  /// `frame`'s buffers are reused, so a caller can read into the same object every time.
+  virtual Status read(DepthFrame& frame) = 0;
+
+  /// A short human-readable name (folder, URI, synth spec) for messages.
+  virtual std::string name() const = 0;
+  /// Nominal calibration of the stream (each frame carries its own copy too).
+  virtual const Intrinsics& intrinsics() const = 0;
+  /// Raw units per metre of the frames.
+  virtual double depth_scale() const = 0;
+  /// Number of frames when known in advance (recordings, synthetic scenes).
+  virtual std::optional<std::size_t> size() const { return std::nullopt; }
+  /// True for live cameras: they never wait for the consumer.
+  virtual bool live() const { return false; }
+  /// Exact scene geometry in the world frame of the ground-truth poses, when the source knows it.
+  virtual const TriangleMesh* scene_mesh() const { return nullptr; }
+};
+
+/// Opens SOURCE as the contract spells it: a TUM-layout folder, `synth:NAME?k=v&...`, (later)
+/// `FILE.oni` and live camera URIs. Throws Error: usage_error for an unknown synth scene or
+/// parameter, input_error for a missing or broken recording, device_error for cameras.
+std::unique_ptr<Source> open_source(const std::string& spec);
+
+}  // namespace aoscan

@@ -1,0 +1,123 @@
+/// @file config.h
+/// @brief Every tunable of aoscan: one struct per module, every field defaulted, units in the names.
+///
+/// Each struct lists its fields once in `visit()`; loading (`--config`, `--set`), validation and
+/// printing are all driven by that list, so a new field needs one line. Defaults are the values of
+/// paper 000 Sec. 7 for a Kinect-class camera.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace aoscan {
+
+/// Depth preprocessing: raw units to metres, range clip, border-outlier removal (paper 000 Sec. 6).
+struct PreprocessConfig {
+  double min_depth_m = 0.4;           ///< nearer depths are invalid
+  double max_depth_m = 4.5;           ///< farther depths are invalid
+  double outlier_threshold_m = 0.02;  ///< drop a pixel when any 8-neighbour differs by more
+
+  template <class V>
+  void visit(V& v) {
+    v.number("min_depth_m", min_depth_m, "nearest depth kept (m)", 0.0, 100.0);
+    v.number("max_depth_m", max_depth_m, "farthest depth kept (m)", 0.0, 100.0);
+    v.number("outlier_threshold_m", outlier_threshold_m,
+             "border-outlier removal: a pixel goes when an 8-neighbour differs in depth by more "
+             "than this (m); 0 disables",
+             0.0, 10.0);
+  }
+};
+
+/// KinectFusion-style TSDF fusion.
+struct FusionConfig {
+  double voxel_size_m = 4.0 / 512.0;  ///< TSDF voxel edge (m)
+  double truncation_m = 4.5 * 4.0 / 512.0;  ///< TSDF truncation band (m)
+
+  template <class V>
+  void visit(V& v) {
+    v.number("voxel_size_m", voxel_size_m, "TSDF voxel edge (m)", 1e-4, 1.0);
+    v.number("truncation_m", truncation_m, "TSDF truncation distance (m)", 1e-4, 10.0);
+  }
+};
+
+/// How SSAO values from several frames are merged per MVAO grid cell (contract key ao.integration).
+enum class AoIntegration { kMvao, kMean, kLast };
+/// Which depth the SSAO runs on (contract key ao.input).
+enum class AoInput { kRaycast, kRaw };
+
+/// Screen-space AO and the multi-view AO grid (paper 000 Sec. 4 and 6).
+struct AoConfig {
+  double radius_m = 0.1;      ///< r_s: radius of the sampling sphere (m)
+  double t_max_m = 0.2;       ///< t_max: falloff distance of rho (m)
+  int samples = 32;           ///< N: samples per pixel
+  double d_min_m = 0.4;       ///< w_d: minimum normalisation depth (m)
+  double d_max_m = 3.0;       ///< w_d: maximum normalisation depth (m)
+  int grid_resolution = 512;  ///< MVAO grid cells per axis over grid_extent_m
+  double grid_extent_m = 4.0; ///< MVAO grid: cell size = grid_extent_m / grid_resolution
+  AoIntegration integration = AoIntegration::kMvao;
+  AoInput input = AoInput::kRaycast;
+
+  template <class V>
+  void visit(V& v) {
+    v.number("radius_m", radius_m, "SSAO sampling sphere radius r_s (m)", 1e-3, 10.0);
+    v.number("t_max_m", t_max_m, "SSAO distance falloff t_max (m)", 1e-3, 10.0);
+    v.integer("samples", samples, "SSAO samples per pixel N", 1, 1024);
+    v.number("d_min_m", d_min_m, "view weight w_d: minimum normalisation depth (m)", 0.0, 100.0);
+    v.number("d_max_m", d_max_m, "view weight w_d: maximum normalisation depth (m)", 1e-3, 100.0);
+    v.integer("grid_resolution", grid_resolution, "MVAO grid cells per grid_extent_m", 1, 1 << 20);
+    v.number("grid_extent_m", grid_extent_m, "MVAO grid: length covered by grid_resolution cells (m)",
+             1e-3, 1e4);
+    v.choice("integration", integration, "merge of SSAO over frames: mvao (w_d*w_n), mean, last",
+             {{"mvao", AoIntegration::kMvao}, {"mean", AoIntegration::kMean},
+              {"last", AoIntegration::kLast}});
+    v.choice("input", input, "SSAO input: raycast of the model or raw filtered depth",
+             {{"raycast", AoInput::kRaycast}, {"raw", AoInput::kRaw}});
+  }
+};
+
+/// The stage thread chain.
+struct PipelineConfig {
+  int queue_capacity = 4;  ///< frames buffered between two stages
+
+  template <class V>
+  void visit(V& v) {
+    v.integer("queue_capacity", queue_capacity, "frames buffered between two stages", 1, 1024);
+  }
+};
+
+/// The whole configuration; keys are `SECTION.FIELD`, e.g. `ao.radius_m`.
+struct Config {
+  PreprocessConfig preprocess;
+  FusionConfig fusion;
+  AoConfig ao;
+  PipelineConfig pipeline;
+
+  template <class V>
+  void visit_sections(V& v) {
+    v.section("preprocess", preprocess);
+    v.section("fusion", fusion);
+    v.section("ao", ao);
+    v.section("pipeline", pipeline);
+  }
+};
+
+/// Applies `KEY=VALUE` to `config`; throws usage_error naming the key on an unknown key or a value
+/// that does not parse or is out of range. `origin` names where it came from (a file, `--set`).
+void set_config_value(Config& config, const std::string& key, const std::string& value,
+                      const std::string& origin);
+
+/// Reads a YAML or JSON file (nested sections or dotted keys) into `config`; throws usage_error
+/// naming the file on a missing file, a syntax error, an unknown key or a bad value.
+void load_config_file(Config& config, const std::string& path);
+
+/// Checks relations between fields (e.g. min < max); throws usage_error.
+void validate_config(const Config& config);
+
+/// Defaults, then `file` (if not empty), then each `KEY=VALUE` of `sets`, then validation.
+Config load_config(const std::string& file, const std::vector<std::string>& sets);
+
+/// The configuration as YAML with one comment per key (what `aoscan config` prints).
+std::string dump_config(const Config& config);
+
+}  // namespace aoscan

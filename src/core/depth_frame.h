@@ -1,0 +1,26 @@
+/// @file depth_frame.h
+/// @brief One depth frame as it leaves a Source: raw 16-bit depth plus everything needed to use it.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/pose.h"
+
+namespace aoscan {
+
+/// Raw depth as the sensor or file gave it. A raw value of 0 is invalid; metres = raw / depth_scale.
+struct DepthFrame {
+  Image<std::uint16_t> depth;      ///< raw units, 0 = invalid
+  double depth_scale = 1000.0;     ///< raw units per metre
+  Intrinsics intrinsics;           ///< calibration of this frame (travels with it)
+  double timestamp_s = 0.0;        ///< the source's own timestamp, seconds
+  std::uint64_t sequence = 0;      ///< index of the frame in its source (skipped frames count)
+  std::string origin;              ///< where it came from (file path or device), for messages
+  std::optional<Pose> T_world_camera_gt;  ///< ground truth when the source knows it
+};
+
+}  // namespace aoscan
