@@ -1,8 +1,137 @@
 /// @file main.cpp
-/// @brief aoscan command line entry point.
+/// @brief aoscan command line: replay, scan, record, devices, config.
+#include <csignal>
 #include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
 
-int main() {
-  std::puts("aoscan " AOSCAN_VERSION);
+#include <CLI/CLI.hpp>
+
+#include "app/commands.h"
+#include "core/log.h"
+#include "core/status.h"
+
+namespace aoscan {
+namespace {
+
+std::atomic<bool> g_stop_requested{false};
+
+/// First SIGINT/SIGTERM asks for a clean stop; a second one kills the process the usual way.
+extern "C" void on_stop_signal(int signo) {
+  g_stop_requested.store(true);
+  std::signal(signo, SIG_DFL);
+}
+
+void install_stop_handlers() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+/// Options shared by replay and scan.
+void add_run_options(CLI::App& cmd, RunArgs& args) {
+  cmd.add_option("--out", args.out_dir, "folder for the outputs (created if missing)")
+      ->capture_default_str();
+  cmd.add_option("--config", args.config_file, "configuration file (YAML or JSON)")
+      ->check(CLI::ExistingFile);
+  cmd.add_option("--set", args.sets, "override one configuration key: KEY=VALUE (repeatable)")
+      ->allow_extra_args(false);
+  cmd.add_option("--frames", args.max_frames, "process at most N frames")->check(CLI::PositiveNumber);
+  cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_flag("--headless", args.headless, "never open a window or touch a display");
+  cmd.add_flag("--realtime", args.realtime,
+               "pace replay by the recorded timestamps, dropping frames like a live camera");
+  cmd.add_flag("--strict", args.strict, "an unreadable frame is an error (exit 3), not a skip");
+  cmd.add_flag("--no-progress", args.no_progress, "no progress line on stderr");
+}
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  return s;
+}
+
+int report(ExitCode code, const std::string& message) {
+  std::fprintf(stderr, "aoscan: error: %s\n", one_line(message).c_str());
+  return static_cast<int>(code);
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{"aoscan: real-time depth capture, KinectFusion-style fusion and multi-view "
+               "ambient occlusion"};
+  app.set_version_flag("--version", "aoscan " AOSCAN_VERSION);
+  app.require_subcommand(1);
+  std::string log_level = "warn";
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off")
+      ->capture_default_str();
+
+  RunArgs replay_args;
+  CLI::App* replay = app.add_subcommand("replay", "run the whole pipeline on a recording or synth: scene");
+  replay->add_option("SOURCE", replay_args.source,
+                     "TUM-layout folder or synth:NAME[?key=value&...]")->required();
+  add_run_options(*replay, replay_args);
+
+  RunArgs scan_args;
+  scan_args.source = "auto";
+  CLI::App* scan = app.add_subcommand("scan", "run the whole pipeline on a live camera");
+  scan->add_option("--device", scan_args.source, "camera URI (openni2[:URI], freenect[:INDEX], "
+                                                 "v4l2:/dev/videoN) or auto")->capture_default_str();
+  add_run_options(*scan, scan_args);
+
+  RecordArgs record_args;
+  CLI::App* record = app.add_subcommand("record", "write any source to a TUM-layout recording folder");
+  record->add_option("SOURCE", record_args.source, "recording folder, synth: scene or camera")->required();
+  record->add_option("DIR", record_args.dir, "recording folder to create")->required();
+  record->add_option("--frames", record_args.max_frames, "record at most N frames")
+      ->check(CLI::PositiveNumber);
+
+  CLI::App* devices = app.add_subcommand("devices", "list the depth cameras this machine can see");
+
+  RunArgs config_args;
+  CLI::App* config = app.add_subcommand("config", "print the effective configuration with every key");
+  config->add_option("--config", config_args.config_file, "configuration file (YAML or JSON)")
+      ->check(CLI::ExistingFile);
+  config->add_option("--set", config_args.sets, "override one configuration key: KEY=VALUE");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return report(ExitCode::kUsage, e.what() + std::string(" (see aoscan --help)"));
+  }
+
+  try {
+    configure_logging(log_level);
+    if (*replay || *scan) {
+      install_stop_handlers();
+      RunArgs& args = *replay ? replay_args : scan_args;
+      args.live = static_cast<bool>(*scan);
+      return static_cast<int>(run_replay(args, g_stop_requested));
+    }
+    if (*record) {
+      install_stop_handlers();
+      return static_cast<int>(run_record(record_args, g_stop_requested));
+    }
+    if (*devices) return static_cast<int>(run_devices());
+    if (*config) return static_cast<int>(run_print_config(config_args));
+  } catch (const Error& e) {
+    return report(e.code(), e.what());
+  } catch (const std::exception& e) {
+    return report(ExitCode::kFailure, e.what());
+  }
   return 0;
 }
+
+}  // namespace
+}  // namespace aoscan
+
+int main(int argc, char** argv) { return aoscan::run(argc, argv); }

@@ -1,0 +1,60 @@
+/// @file commands.cpp
+/// @brief replay/scan, record, devices and config subcommands.
+#include "app/commands.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+#include "capture/devices.h"
+#include "capture/recorder.h"
+#include "capture/source.h"
+#include "core/config.h"
+#include "core/log.h"
+#include "pipeline/session.h"
+
+namespace aoscan {
+
+ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested) {
+  SessionOptions options;
+  options.config = load_config(args.config_file, args.sets);  // exit 2 before touching input
+  options.out_dir = args.out_dir;
+  options.max_frames = args.max_frames;
+  options.threads = args.threads.value_or(0);
+  options.realtime = args.realtime;
+  options.strict = args.strict;
+  options.show_progress = !args.no_progress;
+
+  std::unique_ptr<Source> source = open_source(args.source);
+  if (args.live && !source->live())
+    throw usage_error(args.source + ": scan needs a live camera; use replay for recordings");
+  const SessionResult result = run_session(*source, options, stop_requested);
+  if (result.exit_code != ExitCode::kOk)
+    std::fprintf(stderr, "aoscan: error: %s\n", result.error.c_str());
+  return result.exit_code;
+}
+
+ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_requested) {
+  std::unique_ptr<Source> source = open_source(args.source);
+  const RecordStats stats = record_source(*source, args.dir, args.max_frames, &stop_requested);
+  std::fprintf(stderr, "aoscan: recorded %zu frames to %s", stats.frames_written, args.dir.c_str());
+  if (stats.frames_corrupt > 0) std::fprintf(stderr, " (%zu unreadable skipped)", stats.frames_corrupt);
+  std::fputc('\n', stderr);
+  if (stats.frames_written == 0)
+    throw input_error(args.source + ": no usable frame to record");
+  return ExitCode::kOk;
+}
+
+ExitCode run_devices() {
+  const std::vector<DeviceInfo> found = list_devices();
+  for (const DeviceInfo& d : found) std::printf("%s\t%s\n", d.uri.c_str(), d.description.c_str());
+  if (found.empty()) std::fprintf(stderr, "aoscan: no depth camera found (%s)\n", devices_searched().c_str());
+  return ExitCode::kOk;
+}
+
+ExitCode run_print_config(const RunArgs& args) {
+  std::fputs(dump_config(load_config(args.config_file, args.sets)).c_str(), stdout);
+  return ExitCode::kOk;
+}
+
+}  // namespace aoscan

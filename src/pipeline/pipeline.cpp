@@ -1,0 +1,214 @@
+/// @file pipeline.cpp
+/// @brief Stage threads, queues between them, first-error shutdown.
+#include "pipeline/pipeline.h"
+
+#include <chrono>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "core/log.h"
+#include "fusion/preprocess.h"
+#include "pipeline/bounded_queue.h"
+#include "pipeline/frame_pool.h"
+
+namespace aoscan {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using FramePtr = std::shared_ptr<FrameWork>;
+using FrameQueue = BoundedQueue<FramePtr>;
+
+/// State shared by the stage threads of one run.
+class ChainState {
+ public:
+  /// Records the first error; later ones are only logged.
+  void fail(const Status& status) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (failed_.exchange(true)) {
+      spdlog::debug("later error ignored: {}", status.message());
+      return;
+    }
+    first_error_ = status;
+  }
+  bool failed() const { return failed_.load(); }
+  Status first_error() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return first_error_;
+  }
+
+  std::atomic<std::size_t> frames_read{0};
+  std::atomic<std::size_t> frames_processed{0};
+  std::atomic<std::size_t> frames_corrupt{0};
+  Clock::time_point start;
+  std::atomic<std::int64_t> last_done_ns{0};  ///< since `start`
+
+ private:
+  mutable std::mutex mutex_;
+  std::atomic<bool> failed_{false};
+  Status first_error_;
+};
+
+/// Runs `stage.process` guarded: exceptions become statuses, nothing crosses the thread.
+Status run_guarded(const StageDef& stage, FrameWork& frame) {
+  try {
+    return stage.process(frame);
+  } catch (const Error& e) {
+    if (e.code() == ExitCode::kBadInput) return Status::bad_input(e.what());
+    if (e.code() == ExitCode::kDevice) return Status::device_lost(e.what());
+    return Status::internal(stage.name + ": " + e.what());
+  } catch (const std::exception& e) {
+    return Status::internal(stage.name + ": " + e.what());
+  }
+}
+
+void capture_loop(Source& source, const PipelineOptions& options,
+                  const std::atomic<bool>& stop_requested, ObjectPool<FrameWork>& pool,
+                  FrameQueue& out, StageStats& stats, ChainState& state) {
+  std::optional<double> first_timestamp;
+  Clock::time_point pace_start;
+  while (!stop_requested.load() && !state.failed()) {
+    if (options.max_frames && state.frames_read.load() >= *options.max_frames) break;
+    FramePtr frame = pool.acquire();
+    const auto t0 = Clock::now();
+    Status status;
+    try {
+      status = source.read(frame->raw);
+    } catch (const std::exception& e) {
+      status = Status::internal(std::string("reading ") + source.name() + ": " + e.what());
+    }
+    if (status.code() == Status::Code::kEndOfStream) break;
+    if (status.code() == Status::Code::kCorruptFrame) {
+      if (options.strict) {
+        state.fail(Status::bad_input(status.message()));
+        break;
+      }
+      ++state.frames_corrupt;
+      spdlog::warn("skipped: {}", status.message());
+      continue;
+    }
+    if (!status.is_ok()) {
+      state.fail(status);
+      break;
+    }
+    stats.add_ms(ms_since(t0));
+    ++state.frames_read;
+    if (options.realtime && !source.live()) {
+      // Hold each frame until its recorded time, as a camera would deliver it.
+      if (!first_timestamp) {
+        first_timestamp = frame->raw.timestamp_s;
+        pace_start = Clock::now();
+      }
+      const double offset_s = frame->raw.timestamp_s - *first_timestamp;
+      if (offset_s > 0)
+        std::this_thread::sleep_until(pace_start + std::chrono::duration_cast<Clock::duration>(
+                                                       std::chrono::duration<double>(offset_s)));
+    }
+    if (!out.push(std::move(frame))) break;
+  }
+  out.close();
+}
+
+void stage_loop(const StageDef& stage, FrameQueue& in, FrameQueue* out, StageStats& stats,
+                ChainState& state, const PipelineOptions& options,
+                const std::optional<std::size_t>& expected) {
+  while (std::optional<FramePtr> item = in.pop()) {
+    FrameWork& frame = **item;
+    const auto t0 = Clock::now();
+    const Status status = run_guarded(stage, frame);
+    stats.add_ms(ms_since(t0));
+    if (status.code() == Status::Code::kCorruptFrame) {
+      if (options.strict) {
+        state.fail(Status::bad_input(status.message()));
+        in.close_and_clear();
+        break;
+      }
+      ++state.frames_corrupt;
+      spdlog::warn("skipped: {}", status.message());
+      continue;
+    }
+    if (!status.is_ok()) {
+      state.fail(status);
+      in.close_and_clear();  // upstream's next push fails, so it stops producing
+      break;
+    }
+    if (out) {
+      if (!out->push(std::move(*item))) {
+        in.close_and_clear();
+        break;
+      }
+      continue;
+    }
+    // Last stage: the frame is done.
+    const std::size_t done = ++state.frames_processed;
+    const auto now = Clock::now();
+    state.last_done_ns.store(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(now - state.start).count());
+    if (options.on_progress) {
+      options.on_progress(
+          {done, expected, std::chrono::duration<double>(now - state.start).count()});
+    }
+  }
+  if (out) out->close();
+}
+
+}  // namespace
+
+PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
+                            const PipelineOptions& options,
+                            const std::atomic<bool>& stop_requested) {
+  ObjectPool<FrameWork> pool;  // declared first: outlives every queue and frame
+  ChainState state;
+  const bool drop_at_edge = source.live() || options.realtime;
+
+  // queues[0] is the capture edge; queues[i] feeds stages[i].
+  std::vector<std::unique_ptr<FrameQueue>> queues;
+  for (std::size_t i = 0; i < stages.size(); ++i) {
+    const auto policy =
+        (i == 0 && drop_at_edge) ? OverflowPolicy::kDropOldest : OverflowPolicy::kBlock;
+    queues.push_back(std::make_unique<FrameQueue>(options.queue_capacity, policy));
+  }
+
+  std::optional<std::size_t> expected = source.size();
+  if (options.max_frames) expected = expected ? std::min(*expected, *options.max_frames) : *options.max_frames;
+
+  PipelineResult result;
+  result.stages.emplace_back("capture");
+  for (const StageDef& stage : stages) result.stages.emplace_back(stage.name);
+
+  state.start = Clock::now();
+  {
+    std::vector<std::thread> threads;
+    for (std::size_t i = 0; i < stages.size(); ++i) {
+      FrameQueue* out = i + 1 < stages.size() ? queues[i + 1].get() : nullptr;
+      threads.emplace_back(stage_loop, std::cref(stages[i]), std::ref(*queues[i]), out,
+                           std::ref(result.stages[i + 1]), std::ref(state), std::cref(options),
+                           std::cref(expected));
+    }
+    if (stages.empty()) {
+      state.fail(Status::internal("pipeline has no stages"));
+    } else {
+      capture_loop(source, options, stop_requested, pool, *queues[0], result.stages[0], state);
+    }
+    for (std::thread& t : threads) t.join();
+  }
+
+  result.status = state.failed() ? state.first_error() : Status::ok();
+  result.counters.frames_read = state.frames_read.load();
+  result.counters.frames_processed = state.frames_processed.load();
+  result.counters.frames_corrupt = state.frames_corrupt.load();
+  result.counters.frames_dropped = queues.empty() ? 0 : queues[0]->dropped();
+  result.wall_s = static_cast<double>(state.last_done_ns.load()) * 1e-9;
+  return result;
+}
+
+std::vector<StageDef> make_default_stages(const Config& config) {
+  std::vector<StageDef> stages;
+  stages.push_back({"preprocess", [cfg = config.preprocess](FrameWork& frame) {
+                      preprocess_depth(frame.raw, cfg, frame.depth_m);
+                      return Status::ok();
+                    }});
+  return stages;
+}
+
+}  // namespace aoscan

@@ -1,0 +1,79 @@
+/// @file pipeline.h
+/// @brief The stage thread chain: capture → preprocess → … with bounded queues between stages.
+///
+/// Replay blocks at every queue (every frame once, in order, deterministic). Live sources and
+/// `--realtime` replay drop the oldest frame at the capture edge, and only there. The first error
+/// in any stage stops the whole chain: upstream stops producing, downstream finishes what it has.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "capture/source.h"
+#include "core/config.h"
+#include "core/depth_frame.h"
+#include "core/image.h"
+#include "core/status.h"
+#include "pipeline/stage_stats.h"
+
+namespace aoscan {
+
+/// Everything one frame accumulates on its way through the chain; recycled between frames.
+struct FrameWork {
+  DepthFrame raw;        ///< as read from the source
+  Image<float> depth_m;  ///< metres after range clip and border-outlier removal (0 = invalid)
+};
+
+/// A processing step of the chain. It runs on its own thread; `process` returns ok to pass the
+/// frame on, corrupt_frame to skip it (counted), anything else to stop the chain.
+struct StageDef {
+  std::string name;
+  std::function<Status(FrameWork&)> process;
+};
+
+/// Counts over one run.
+struct PipelineCounters {
+  std::size_t frames_read = 0;       ///< frames the source delivered
+  std::size_t frames_processed = 0;  ///< frames that went through every stage
+  std::size_t frames_dropped = 0;    ///< dropped at the capture edge (live / realtime)
+  std::size_t frames_corrupt = 0;    ///< unreadable frames skipped
+  std::size_t frames_tracking_lost = 0;
+};
+
+/// Progress as seen by the last stage.
+struct Progress {
+  std::size_t frames_processed = 0;
+  std::optional<std::size_t> frames_expected;  ///< when the source knows its length
+  double elapsed_s = 0.0;
+};
+
+struct PipelineOptions {
+  std::optional<std::size_t> max_frames;  ///< stop after this many frames read
+  bool realtime = false;  ///< pace replay by the recorded timestamps and drop like a live camera
+  bool strict = false;    ///< a corrupt frame ends the run with exit 3 instead of a counted skip
+  std::size_t queue_capacity = 4;
+  std::function<void(const Progress&)> on_progress;  ///< called by the last stage, may be empty
+};
+
+struct PipelineResult {
+  Status status;  ///< ok, or the first error that stopped the chain
+  PipelineCounters counters;
+  double wall_s = 0.0;  ///< first frame read to last frame through the chain
+  std::vector<StageStats> stages;  ///< "capture" first, then each StageDef in order
+};
+
+/// Runs `source` through `stages` until the source ends, `max_frames` are read, `stop_requested`
+/// becomes true (SIGINT/SIGTERM: frames in flight are finished), or a stage fails.
+PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
+                            const PipelineOptions& options,
+                            const std::atomic<bool>& stop_requested);
+
+/// The stages available so far, configured from `config`.
+std::vector<StageDef> make_default_stages(const Config& config);
+
+}  // namespace aoscan

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Installs the Debian packages aoscan needs. Usage: tools/install-deps.sh [--tests]
+# Uses sudo only when not root; does nothing when every package is already installed.
+set -euo pipefail
+
+packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-dev libcli11-dev
+          nlohmann-json3-dev libyaml-cpp-dev libtbb-dev)
+if [[ "${1:-}" == "--tests" ]]; then
+  packages+=(libgtest-dev)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [[ ${#missing[@]} -eq 0 ]]; then
+  exit 0
+fi
+
+sudo=""
+if [[ "$(id -u)" -ne 0 ]]; then
+  sudo="sudo"
+fi
+echo "Installing: ${missing[*]}"
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
