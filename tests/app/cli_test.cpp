@@ -1,0 +1,278 @@
+// End-to-end tests of the aoscan executable: exit codes, one-line errors, outputs, signals.
+#include <png.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// A fresh empty folder per test.
+fs::path temp_dir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_cli_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string quote(const std::string& s) { return "'" + s + "'"; }
+
+CliResult run_cli(const std::string& args, const fs::path& scratch) {
+  const fs::path out = scratch / "stdout.txt";
+  const fs::path err = scratch / "stderr.txt";
+  const std::string cmd = std::string(AOSCAN_BINARY) + " " + args + " > " + quote(out.string()) +
+                          " 2> " + quote(err.string()) + " < /dev/null";
+  const int status = std::system(cmd.c_str());
+  CliResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.out = read_text(out);
+  r.err = read_text(err);
+  return r;
+}
+
+nlohmann::json read_stats(const fs::path& out_dir) {
+  return nlohmann::json::parse(read_text(out_dir / "stats.json"));
+}
+
+/// Exactly one line on stderr, starting with "aoscan: error:" and mentioning `needle`.
+void expect_one_line_error(const CliResult& r, const std::string& needle) {
+  EXPECT_EQ(r.err.rfind("aoscan: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+}
+
+/// Records a small synthetic recording into dir/rec (64x48 keeps it fast).
+fs::path make_recording(const fs::path& dir, int frames = 8) {
+  const fs::path rec = dir / "rec";
+  const CliResult r = run_cli("record " + quote("synth:corner?frames=" + std::to_string(frames) +
+                                                "&width=64&height=48") +
+                                  " " + quote(rec.string()),
+                              dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return rec;
+}
+
+void write_png(const fs::path& path, int width, int height, png_uint_32 format) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = static_cast<png_uint_32>(width);
+  image.height = static_cast<png_uint_32>(height);
+  image.format = format;
+  std::vector<unsigned char> pixels(PNG_IMAGE_SIZE(image), 100);
+  ASSERT_NE(png_image_write_to_file(&image, path.c_str(), 0, pixels.data(), 0, nullptr), 0);
+}
+
+TEST(Cli, VersionAndHelp) {
+  const fs::path dir = temp_dir("version");
+  const CliResult v = run_cli("--version", dir);
+  EXPECT_EQ(v.exit_code, 0);
+  EXPECT_NE(v.out.find("aoscan "), std::string::npos);
+  const CliResult h = run_cli("--help", dir);
+  EXPECT_EQ(h.exit_code, 0);
+  for (const char* sub : {"replay", "scan", "record", "devices"})
+    EXPECT_NE(h.out.find(sub), std::string::npos) << sub;
+  EXPECT_EQ(run_cli("replay --help", dir).exit_code, 0);
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+  const fs::path dir = temp_dir("usage");
+  expect_one_line_error(run_cli("", dir), "subcommand");
+  EXPECT_EQ(run_cli("", dir).exit_code, 2);
+  EXPECT_EQ(run_cli("replay", dir).exit_code, 2);
+  EXPECT_EQ(run_cli("replay x --frames abc", dir).exit_code, 2);
+  const CliResult bad_key = run_cli("replay synth:corner --set ao.colour=red", dir);
+  EXPECT_EQ(bad_key.exit_code, 2);
+  expect_one_line_error(bad_key, "ao.colour");
+  const CliResult bad_value = run_cli("replay synth:corner --set ao.radius_m=-1", dir);
+  EXPECT_EQ(bad_value.exit_code, 2);
+  expect_one_line_error(bad_value, "ao.radius_m");
+  std::ofstream(dir / "bad.yaml") << "ao: [1, 2\n";
+  const CliResult bad_file = run_cli("replay synth:corner --config " + (dir / "bad.yaml").string(), dir);
+  EXPECT_EQ(bad_file.exit_code, 2);
+  expect_one_line_error(bad_file, "bad.yaml");
+}
+
+TEST(Cli, UnknownSynthSceneOrParameterExitTwo) {
+  const fs::path dir = temp_dir("synth_bad");
+  const CliResult scene = run_cli("replay synth:castle --out " + quote((dir / "o").string()), dir);
+  EXPECT_EQ(scene.exit_code, 2);
+  expect_one_line_error(scene, "castle");
+  const CliResult param = run_cli("replay " + quote("synth:corner?fraems=3"), dir);
+  EXPECT_EQ(param.exit_code, 2);
+  expect_one_line_error(param, "fraems");
+  const CliResult value = run_cli("replay " + quote("synth:corner?noise=loud"), dir);
+  EXPECT_EQ(value.exit_code, 2);
+  expect_one_line_error(value, "noise");
+}
+
+TEST(Cli, MissingFolderAndListExitThree) {
+  const fs::path dir = temp_dir("missing");
+  const CliResult missing = run_cli("replay " + quote((dir / "nope").string()), dir);
+  EXPECT_EQ(missing.exit_code, 3);
+  expect_one_line_error(missing, (dir / "nope").string());
+
+  fs::create_directories(dir / "empty");
+  const CliResult no_list = run_cli("replay " + quote((dir / "empty").string()), dir);
+  EXPECT_EQ(no_list.exit_code, 3);
+  expect_one_line_error(no_list, "depth.txt");
+
+  const fs::path rec = make_recording(dir);
+  std::ofstream(rec / "depth.txt", std::ios::app) << "this line is garbled\n";
+  const CliResult garbled = run_cli("replay " + quote(rec.string()), dir);
+  EXPECT_EQ(garbled.exit_code, 3);
+  expect_one_line_error(garbled, "depth.txt:");
+}
+
+TEST(Cli, BadCameraJsonExitsThree) {
+  const fs::path dir = temp_dir("camera");
+  const fs::path rec = make_recording(dir);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"missing", R"({"fx": 52.5, "fy": 52.5, "cx": 31.5, "depth_scale": 5000})"},
+      {"negative", R"({"fx": -52.5, "fy": 52.5, "cx": 31.5, "cy": 23.5, "depth_scale": 5000})"},
+      {"nan", R"({"fx": NaN, "fy": 52.5, "cx": 31.5, "cy": 23.5, "depth_scale": 5000})"},
+      {"string", R"({"fx": "a", "fy": 52.5, "cx": 31.5, "cy": 23.5, "depth_scale": 5000})"},
+  };
+  for (const auto& [name, text] : cases) {
+    std::ofstream(rec / "camera.json", std::ios::trunc) << text;
+    const CliResult r = run_cli("replay " + quote(rec.string()) + " --out " +
+                                    quote((dir / ("o_" + name)).string()),
+                                dir);
+    EXPECT_EQ(r.exit_code, 3) << name << ": " << r.err;
+    expect_one_line_error(r, "camera.json");
+  }
+}
+
+TEST(Cli, BadFramesAreCountedSkipsOrStrictErrors) {
+  const fs::path dir = temp_dir("frames");
+  const fs::path rec = make_recording(dir, 10);
+  // Frame files are named by sequence: break five of the ten in five different ways.
+  std::vector<fs::path> pngs;
+  for (const auto& e : fs::directory_iterator(rec / "depth")) pngs.push_back(e.path());
+  std::sort(pngs.begin(), pngs.end());
+  ASSERT_EQ(pngs.size(), 10u);
+  fs::remove(pngs[1]);                                   // listed but missing
+  fs::resize_file(pngs[3], fs::file_size(pngs[3]) / 2);  // truncated
+  write_png(pngs[5], 64, 48, PNG_FORMAT_GRAY);           // 8-bit
+  write_png(pngs[6], 64, 48, PNG_FORMAT_RGB);            // colour
+  write_png(pngs[8], 32, 24, PNG_FORMAT_LINEAR_Y);       // 16-bit but another size
+  const fs::path out = dir / "out";
+  const CliResult r = run_cli("replay " + quote(rec.string()) + " --out " + quote(out.string()), dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json stats = read_stats(out);
+  EXPECT_EQ(stats["frames_corrupt"], 5);
+  EXPECT_EQ(stats["frames_processed"], 5);
+
+  const CliResult strict =
+      run_cli("replay " + quote(rec.string()) + " --strict --out " + quote((dir / "o2").string()), dir);
+  EXPECT_EQ(strict.exit_code, 3);
+  expect_one_line_error(strict, pngs[1].filename().string());
+  EXPECT_NE(strict.err.find("frame 1"), std::string::npos) << strict.err;
+}
+
+TEST(Cli, NoUsableFrameExitsThree) {
+  const fs::path dir = temp_dir("nousable");
+  const fs::path rec = make_recording(dir, 3);
+  for (const auto& e : fs::directory_iterator(rec / "depth")) fs::resize_file(e.path(), 10);
+  const CliResult r = run_cli("replay " + quote(rec.string()) + " --out " + quote((dir / "o").string()), dir);
+  EXPECT_EQ(r.exit_code, 3);
+  expect_one_line_error(r, "no usable frame");
+}
+
+TEST(Cli, RecordThenReplaySynthetic) {
+  const fs::path dir = temp_dir("record");
+  const fs::path rec = dir / "D";
+  const CliResult rec_r =
+      run_cli("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") + " " +
+                  quote(rec.string()),
+              dir);
+  ASSERT_EQ(rec_r.exit_code, 0) << rec_r.err;
+  for (const char* f : {"depth.txt", "camera.json", "groundtruth.txt", "scene.ply"})
+    EXPECT_TRUE(fs::exists(rec / f)) << f;
+  const fs::path out = dir / "O";
+  const CliResult r = run_cli("replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json stats = read_stats(out);
+  EXPECT_EQ(stats["frames_processed"], 60);
+  EXPECT_EQ(stats["frames_read"], 60);
+  for (const char* key : {"frames_dropped", "frames_corrupt", "frames_tracking_lost", "wall_s", "fps",
+                          "export_s", "threads", "peak_rss_mb", "stages"})
+    EXPECT_TRUE(stats.contains(key)) << key;
+  for (const auto& [name, stage] : stats["stages"].items())
+    for (const char* key : {"ms_mean", "ms_p50", "ms_p95", "ms_max"})
+      EXPECT_TRUE(stage.contains(key)) << name << "." << key;
+  EXPECT_TRUE(stats["stages"].contains("preprocess"));
+
+  // A second recording of the same spec is byte-identical (deterministic synthesis).
+  const fs::path rec2 = dir / "D2";
+  ASSERT_EQ(run_cli("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") +
+                        " " + quote(rec2.string()),
+                    dir)
+                .exit_code,
+            0);
+  for (const char* f : {"depth.txt", "groundtruth.txt", "depth/000059.png"})
+    EXPECT_EQ(read_text(rec / f), read_text(rec2 / f)) << f;
+  // Recording refuses to overwrite an existing recording.
+  EXPECT_EQ(run_cli("record synth:corner " + quote(rec.string()), dir).exit_code, 2);
+}
+
+TEST(Cli, SigintWritesOutputsAndExitsZero) {
+  const fs::path dir = temp_dir("sigint");
+  const fs::path out = dir / "out";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    freopen("/dev/null", "w", stderr);
+    execl(AOSCAN_BINARY, AOSCAN_BINARY, "replay", "synth:corner?frames=100000&width=160&height=120",
+          "--out", out.c_str(), nullptr);
+    _exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const nlohmann::json stats = read_stats(out);
+  EXPECT_GT(stats["frames_processed"].get<int>(), 0);
+  EXPECT_EQ(stats["frames_processed"], stats["frames_read"]);
+}
+
+TEST(Cli, ReplaysRedKitchen) {
+  const fs::path data = fs::path(AOSCAN_SHARED_DATA_DIR) / "7scenes-redkitchen";
+  if (!fs::exists(data / "depth.txt")) GTEST_SKIP() << "shared data not found at " << data;
+  const fs::path dir = temp_dir("redkitchen");
+  const CliResult r = run_cli("replay " + quote(data.string()) + " --out " + quote((dir / "o").string()), dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json stats = read_stats(dir / "o");
+  EXPECT_EQ(stats["frames_processed"], 500);
+  EXPECT_EQ(stats["frames_corrupt"], 0);
+}
+
+}  // namespace
