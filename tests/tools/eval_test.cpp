@@ -1,0 +1,120 @@
+// Tests for tools/eval: ATE/RPE and point-to-mesh distances with exact answers.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "mesh_eval.h"
+#include "trajectory_eval.h"
+
+namespace aoscan::eval {
+namespace {
+
+Pose pose(double yaw, const Eigen::Vector3d& t) {
+  return Pose(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix(), t);
+}
+
+/// A curved path so that the rigid alignment is fully determined.
+std::vector<StampedPose> path(std::size_t n) {
+  std::vector<StampedPose> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double s = static_cast<double>(i) * 0.05;
+    out.push_back({static_cast<double>(i) / 30.0,
+                   pose(0.3 * s, {std::cos(s), std::sin(s), 0.2 * s})});
+  }
+  return out;
+}
+
+TEST(TrajectoryEval, RigidlyMovedCopyHasZeroAte) {
+  const auto truth = path(100);
+  std::vector<StampedPose> estimate = truth;
+  const Pose offset = Pose(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+                           {0.5, -1.0, 2.0});
+  for (auto& p : estimate) p.T_world_camera = offset * p.T_world_camera;
+  const AssociatedPoses poses = associate_poses(truth, estimate);
+  ASSERT_EQ(poses.estimate.size(), 100u);
+  const AteResult ate = compute_ate(poses);
+  EXPECT_LT(ate.rmse_m, 1e-9);
+  EXPECT_TRUE((ate.T_truth_estimate * offset).matrix().isIdentity(1e-9));
+  const RpeResult rpe = compute_rpe(poses, 1);
+  EXPECT_LT(rpe.translation_rmse_m, 1e-9);
+  EXPECT_LT(rpe.rotation_rmse_deg, 1e-6);
+}
+
+TEST(TrajectoryEval, KnownOffsetGivesKnownErrors) {
+  const auto truth = path(50);
+  std::vector<StampedPose> estimate = truth;
+  // Alternate +-1 cm along z: zero-mean, so alignment cannot remove it; ATE rmse = 1 cm.
+  for (std::size_t i = 0; i < estimate.size(); ++i)
+    estimate[i].T_world_camera = Pose(estimate[i].T_world_camera.rotation(),
+                                      estimate[i].T_world_camera.translation() +
+                                          Eigen::Vector3d(0, 0, i % 2 ? 0.01 : -0.01));
+  const AteResult ate = compute_ate(associate_poses(truth, estimate));
+  EXPECT_NEAR(ate.rmse_m, 0.01, 2e-4);
+  // RPE: each step changes the z error by 2 cm, seen in the camera frame: 2 cm per step.
+  const RpeResult rpe = compute_rpe(associate_poses(truth, estimate), 1);
+  EXPECT_NEAR(rpe.translation_rmse_m, 0.02, 1e-9);
+}
+
+TEST(TrajectoryEval, AssociationDropsUnmatchedTimestamps) {
+  const auto truth = path(10);
+  std::vector<StampedPose> estimate = {truth[2], truth[5]};
+  estimate[1].timestamp_s += 0.5;  // no ground truth near
+  EXPECT_EQ(associate_poses(truth, estimate).estimate.size(), 1u);
+}
+
+TEST(MeshEval, ClosestPointOnTriangleRegions) {
+  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  EXPECT_TRUE(closest_point_on_triangle({0.2, 0.2, 3}, a, b, c).isApprox(Eigen::Vector3d(0.2, 0.2, 0)));
+  EXPECT_TRUE(closest_point_on_triangle({-1, -1, 0}, a, b, c).isApprox(a));
+  EXPECT_TRUE(closest_point_on_triangle({2, -0.5, 0}, a, b, c).isApprox(b));
+  EXPECT_TRUE(closest_point_on_triangle({0.5, -2, 1}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0, 0)));
+  EXPECT_TRUE(closest_point_on_triangle({1, 1, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.5, 0)));
+}
+
+/// A unit square in the z = 0 plane, split into 2 * n * n triangles.
+TriangleMesh square(int n, double z = 0) {
+  TriangleMesh m;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x)
+      m.vertices.emplace_back(static_cast<float>(x) / n, static_cast<float>(y) / n, static_cast<float>(z));
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int i = y * (n + 1) + x;
+      m.faces.emplace_back(i, i + 1, i + n + 2);
+      m.faces.emplace_back(i, i + n + 2, i + n + 1);
+    }
+  return m;
+}
+
+TEST(MeshEval, DistanceMatchesBruteForce) {
+  const TriangleMesh m = square(20);
+  const MeshDistance grid(m, 0.03);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.3, 1.3);
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng) * 0.2);
+    double brute = 1e9;
+    for (const auto& f : m.faces)
+      brute = std::min(brute, (closest_point_on_triangle(p, m.vertices[f[0]].cast<double>(),
+                                                         m.vertices[f[1]].cast<double>(),
+                                                         m.vertices[f[2]].cast<double>()) - p).norm());
+    EXPECT_NEAR(grid.distance(p, 0.5), std::min(brute, 0.5), 1e-9) << p.transpose();
+  }
+}
+
+TEST(MeshEval, OffsetCopyHasThatAccuracyAndFullCompleteness) {
+  const TriangleMesh truth = square(10);
+  const TriangleMesh shifted = square(10, 0.004);  // 4 mm above
+  const MeshEvalResult r = evaluate_mesh(shifted, truth, Pose(), 0.1, 0.01, 20000);
+  EXPECT_NEAR(r.accuracy_mean_m, 0.004, 1e-6);
+  EXPECT_NEAR(r.completeness, 1.0, 1e-9);
+  EXPECT_EQ(r.outlier_fraction, 0.0);
+  // Half the square: about half complete.
+  TriangleMesh half = truth;
+  half.faces.resize(half.faces.size() / 2);
+  EXPECT_NEAR(evaluate_mesh(half, truth, Pose(), 0.1, 0.001, 20000).completeness, 0.5, 0.03);
+}
+
+}  // namespace
+}  // namespace aoscan::eval

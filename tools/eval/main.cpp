@@ -1,0 +1,104 @@
+/// @file main.cpp
+/// @brief aoscan-eval: trajectory error (ATE/RPE) and mesh accuracy/completeness against ground truth.
+#include <cstdio>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "core/status.h"
+#include "io/ply.h"
+#include "io/tum.h"
+#include "mesh_eval.h"
+#include "trajectory_eval.h"
+
+namespace aoscan::eval {
+namespace {
+
+int run(int argc, char** argv) {
+  CLI::App app{"aoscan-eval: compare aoscan outputs with ground truth"};
+  app.require_subcommand(1);
+
+  std::string gt_path, est_path, mesh_path, truth_mesh_path;
+  std::size_t delta = 1;
+  double max_dt = 0.02, max_distance = 0.1, threshold = 0.01;
+  bool json = false;
+  app.add_flag("--json", json, "print one JSON object instead of text");
+
+  CLI::App* traj = app.add_subcommand(
+      "trajectory", "ATE (after rigid alignment, no scale) and RPE of EST against GT (TUM format)");
+  traj->add_option("GT", gt_path, "ground-truth trajectory")->required()->check(CLI::ExistingFile);
+  traj->add_option("EST", est_path, "estimated trajectory (aoscan's trajectory.txt)")
+      ->required()->check(CLI::ExistingFile);
+  traj->add_option("--delta", delta, "RPE step in frames")->capture_default_str();
+  traj->add_option("--max-dt", max_dt, "timestamp association tolerance (s)")->capture_default_str();
+
+  CLI::App* mesh = app.add_subcommand(
+      "mesh", "accuracy and completeness of MESH against TRUTH; the estimated trajectory's ATE "
+              "alignment maps MESH into TRUTH's frame");
+  mesh->add_option("MESH", mesh_path, "reconstructed mesh (aoscan's mesh.ply)")->required()->check(CLI::ExistingFile);
+  mesh->add_option("TRUTH", truth_mesh_path, "ground-truth mesh (a synthetic recording's scene.ply)")
+      ->required()->check(CLI::ExistingFile);
+  mesh->add_option("--groundtruth", gt_path, "ground-truth trajectory")->required()->check(CLI::ExistingFile);
+  mesh->add_option("--estimate", est_path, "estimated trajectory")->required()->check(CLI::ExistingFile);
+  mesh->add_option("--max-distance", max_distance, "accuracy cap (m)")->capture_default_str();
+  mesh->add_option("--threshold", threshold, "completeness distance (m)")->capture_default_str();
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    const AssociatedPoses poses = associate_poses(read_trajectory(gt_path), read_trajectory(est_path), max_dt);
+    if (poses.estimate.empty()) throw input_error(est_path + ": no pose matches a timestamp of " + gt_path);
+    const AteResult ate = compute_ate(poses);
+    nlohmann::json out;
+    out["pairs"] = ate.pairs;
+    out["ate_rmse_m"] = ate.rmse_m;
+    out["ate_mean_m"] = ate.mean_m;
+    out["ate_median_m"] = ate.median_m;
+    out["ate_max_m"] = ate.max_m;
+    out["alignment"] = "rigid (rotation + translation, no scale), least squares on positions";
+    if (*traj) {
+      const RpeResult rpe = compute_rpe(poses, delta);
+      out["rpe_delta_frames"] = delta;
+      out["rpe_translation_rmse_m"] = rpe.translation_rmse_m;
+      out["rpe_rotation_rmse_deg"] = rpe.rotation_rmse_deg;
+      if (!json) {
+        std::printf("poses matched       %zu\n", ate.pairs);
+        std::printf("ATE rmse            %.2f mm (mean %.2f, median %.2f, max %.2f mm)\n", ate.rmse_m * 1e3,
+                    ate.mean_m * 1e3, ate.median_m * 1e3, ate.max_m * 1e3);
+        std::printf("RPE (%zu frame)      %.2f mm, %.3f deg (rmse)\n", delta, rpe.translation_rmse_m * 1e3,
+                    rpe.rotation_rmse_deg);
+        std::printf("alignment           rigid (rotation + translation, no scale)\n");
+      }
+    } else {
+      const MeshEvalResult m = evaluate_mesh(read_ply(mesh_path), read_ply(truth_mesh_path),
+                                             ate.T_truth_estimate, max_distance, threshold);
+      out["vertices"] = m.vertices;
+      out["accuracy_mean_m"] = m.accuracy_mean_m;
+      out["accuracy_median_m"] = m.accuracy_median_m;
+      out["accuracy_p90_m"] = m.accuracy_p90_m;
+      out["outlier_fraction"] = m.outlier_fraction;
+      out["completeness"] = m.completeness;
+      out["completeness_threshold_m"] = threshold;
+      if (!json) {
+        std::printf("vertices            %zu (aligned by the trajectory, ATE %.2f mm)\n", m.vertices,
+                    ate.rmse_m * 1e3);
+        std::printf("accuracy            mean %.2f mm, median %.2f mm, p90 %.2f mm\n",
+                    m.accuracy_mean_m * 1e3, m.accuracy_median_m * 1e3, m.accuracy_p90_m * 1e3);
+        std::printf("outliers            %.3f %% farther than %.0f mm\n", m.outlier_fraction * 100,
+                    max_distance * 1e3);
+        std::printf("completeness        %.1f %% of the true surface within %.0f mm\n",
+                    m.completeness * 100, threshold * 1e3);
+      }
+    }
+    if (json) std::printf("%s\n", out.dump(2).c_str());
+  } catch (const Error& e) {
+    std::fprintf(stderr, "aoscan-eval: error: %s\n", e.what());
+    return static_cast<int>(e.code());
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace aoscan::eval
+
+int main(int argc, char** argv) { return aoscan::eval::run(argc, argv); }
