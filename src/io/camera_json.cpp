@@ -80,8 +80,8 @@ double positive_number(const nlohmann::json& doc, const std::string& path, const
 
 /// Width or height: a positive integer (an integral float such as 640.0 is accepted).
 int image_side(const nlohmann::json& value, const std::string& path, const char* key) {
-  const std::string bad = path + ": key '" + key + "' must be a positive integer (got " +
-                          value.dump() + ")";
+  const std::string bad =
+      path + ": key '" + key + "' must be a positive integer (got " + value.dump() + ")";
   if (value.is_number_integer()) {
     const auto v = value.get<std::int64_t>();
     if (value.is_number_unsigned() && value.get<std::uint64_t>() > std::uint64_t{kMaxImageSide})
@@ -104,7 +104,9 @@ std::string shortest(double v) {
   return std::string(buffer, result.ptr);
 }
 
-bool contains(const std::string& s, const char* part) { return s.find(part) != std::string::npos; }
+bool contains(const std::string& s, const char* part) {
+  return s.find(part) != std::string::npos;
+}
 
 }  // namespace
 
@@ -155,13 +157,12 @@ CameraInfo read_camera_json(const std::string& path, int default_width, int defa
 void write_camera_json(const std::string& path, const Intrinsics& intrinsics, double depth_scale) {
   if (!intrinsics.valid() || !std::isfinite(depth_scale) || !(depth_scale > 0))
     throw usage_error(path + ": refusing to write invalid calibration");
-  const std::string text = "{ \"width\": " + std::to_string(intrinsics.width) +
-                           ", \"height\": " + std::to_string(intrinsics.height) +
-                           ", \"fx\": " + shortest(intrinsics.fx) +
-                           ", \"fy\": " + shortest(intrinsics.fy) +
-                           ", \"cx\": " + shortest(intrinsics.cx) +
-                           ", \"cy\": " + shortest(intrinsics.cy) +
-                           ", \"depth_scale\": " + shortest(depth_scale) + " }\n";
+  const std::string text =
+      "{ \"width\": " + std::to_string(intrinsics.width) +
+      ", \"height\": " + std::to_string(intrinsics.height) +
+      ", \"fx\": " + shortest(intrinsics.fx) + ", \"fy\": " + shortest(intrinsics.fy) +
+      ", \"cx\": " + shortest(intrinsics.cx) + ", \"cy\": " + shortest(intrinsics.cy) +
+      ", \"depth_scale\": " + shortest(depth_scale) + " }\n";
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out << text;
   out.close();
@@ -176,7 +177,8 @@ CameraInfo default_camera_for_folder(const std::string& folder) {
   if (name.empty() || name == "." || name == "..") {
     std::error_code ec;
     const fs::path absolute = fs::absolute(p, ec).lexically_normal();
-    if (!ec) name = (absolute.has_filename() ? absolute : absolute.parent_path()).filename().string();
+    if (!ec)
+      name = (absolute.has_filename() ? absolute : absolute.parent_path()).filename().string();
   }
 
   // TUM RGB-D calibrations of the freiburg1/2/3 depth cameras, then the generic Kinect default.

@@ -19,13 +19,14 @@ struct CameraInfo {
 /// Reads `{ "fx", "fy", "cx", "cy", "depth_scale" [, "width", "height"] }` (pixels; raw units per
 /// metre). Missing `width`/`height` take `default_width`/`default_height` (size_given = false);
 /// the two must be given together. Throws input_error, one line naming the file and the key, on an
-/// unreadable file, invalid JSON, a missing key, a non-number, a non-finite value, fx/fy/depth_scale
+/// unreadable file, invalid JSON, a missing key, a non-number, a non-finite value,
+/// fx/fy/depth_scale
 /// <= 0, or a width/height that is not a positive integer.
 CameraInfo read_camera_json(const std::string& path, int default_width, int default_height);
 
 /// Writes camera.json with width, height, fx, fy, cx, cy and depth_scale in shortest round-trip
-/// precision (reading it back gives identical doubles). Throws usage_error for invalid intrinsics or
-/// scale and Error (exit code 1) when the file cannot be written.
+/// precision (reading it back gives identical doubles). Throws usage_error for invalid intrinsics
+/// or scale and Error (exit code 1) when the file cannot be written.
 void write_camera_json(const std::string& path, const Intrinsics& intrinsics, double depth_scale);
 
 /// The contract's calibration for a TUM-layout folder without camera.json, chosen by the folder's

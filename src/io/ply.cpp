@@ -51,11 +51,11 @@ enum class Type { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFl
 
 bool parse_type(std::string_view name, Type& type) {
   static const std::pair<const char*, Type> kNames[] = {
-      {"char", Type::kInt8},     {"int8", Type::kInt8},       {"uchar", Type::kUint8},
-      {"uint8", Type::kUint8},   {"short", Type::kInt16},     {"int16", Type::kInt16},
-      {"ushort", Type::kUint16}, {"uint16", Type::kUint16},   {"int", Type::kInt32},
-      {"int32", Type::kInt32},   {"uint", Type::kUint32},     {"uint32", Type::kUint32},
-      {"float", Type::kFloat32}, {"float32", Type::kFloat32}, {"double", Type::kFloat64},
+      {"char", Type::kInt8},      {"int8", Type::kInt8},       {"uchar", Type::kUint8},
+      {"uint8", Type::kUint8},    {"short", Type::kInt16},     {"int16", Type::kInt16},
+      {"ushort", Type::kUint16},  {"uint16", Type::kUint16},   {"int", Type::kInt32},
+      {"int32", Type::kInt32},    {"uint", Type::kUint32},     {"uint32", Type::kUint32},
+      {"float", Type::kFloat32},  {"float32", Type::kFloat32}, {"double", Type::kFloat64},
       {"float64", Type::kFloat64}};
   for (const auto& [n, t] : kNames)
     if (name == n) {
@@ -185,7 +185,8 @@ class DataReader {
 /// Smallest number of bytes (binary) or tokens (ASCII) one instance of `e` takes.
 std::uint64_t min_instance_size(const Element& e, bool ascii) {
   std::uint64_t n = 0;
-  for (const Property& p : e.properties) n += ascii ? 1 : type_size(p.is_list ? p.count_type : p.type);
+  for (const Property& p : e.properties)
+    n += ascii ? 1 : type_size(p.is_list ? p.count_type : p.type);
   return std::max<std::uint64_t>(n, 1);
 }
 
@@ -239,7 +240,8 @@ void write_ply(const std::string& path, const TriangleMesh& mesh) {
   std::vector<unsigned char> buffer;
   buffer.reserve(kChunk + 64);
   auto flush = [&] {
-    if (ok && !buffer.empty()) ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
+    if (ok && !buffer.empty())
+      ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
     buffer.clear();
   };
   for (std::size_t i = 0; i < n; ++i) {
@@ -289,7 +291,8 @@ TriangleMesh read_ply(const std::string& path) {
   while (next_line(line)) {
     const auto tokens = split(line);
     if (tokens.empty() || tokens[0] == "comment" || tokens[0] == "obj_info") continue;
-    const std::string bad = path + ": bad PLY header line '" + std::string(line.substr(0, 60)) + "'";
+    const std::string bad =
+        path + ": bad PLY header line '" + std::string(line.substr(0, 60)) + "'";
     if (tokens[0] == "end_header") {
       ended = true;
       break;
@@ -305,8 +308,10 @@ TriangleMesh read_ply(const std::string& path) {
       if (tokens.size() != 3) throw input_error(bad);
       Element e;
       e.name = std::string(tokens[1]);
-      const auto r = std::from_chars(tokens[2].data(), tokens[2].data() + tokens[2].size(), e.count);
-      if (r.ec != std::errc() || r.ptr != tokens[2].data() + tokens[2].size()) throw input_error(bad);
+      const auto r =
+          std::from_chars(tokens[2].data(), tokens[2].data() + tokens[2].size(), e.count);
+      if (r.ec != std::errc() || r.ptr != tokens[2].data() + tokens[2].size())
+        throw input_error(bad);
       elements.push_back(std::move(e));
     } else if (tokens[0] == "property") {
       if (elements.empty()) throw input_error(bad);
@@ -333,8 +338,8 @@ TriangleMesh read_ply(const std::string& path) {
   bool have_vertices = false;
   for (const Element& e : elements) {
     if (e.count > reader.remaining() / min_instance_size(e, ascii) + 1)
-      throw input_error(path + ": truncated PLY data, too short for " + std::to_string(e.count) + " " + e.name +
-                        " elements");
+      throw input_error(path + ": truncated PLY data, too short for " + std::to_string(e.count) +
+                        " " + e.name + " elements");
     const bool is_vertex = e.name == "vertex";
     const bool is_face = e.name == "face";
     // Column roles of the vertex element: 0-2 position, 3-5 normal, 6 quality, -1 ignored.
@@ -387,8 +392,11 @@ TriangleMesh read_ply(const std::string& path) {
           continue;
         }
         const double count = reader.next(p.count_type, what, index);
-        if (!(count >= 0) || count != std::floor(count) || count > reader.remaining() + 1.0)
+        if (!(count >= 0) || count != std::floor(count))
           throw input_error(path + ": bad list length in " + e.name + " " + std::to_string(index));
+        if (count > static_cast<double>(reader.remaining()))  // every item takes a byte at least
+          throw input_error(path + ": truncated PLY data at " + e.name + " " +
+                            std::to_string(index));
         polygon.clear();
         for (int k = 0; k < static_cast<int>(count); ++k) {
           const double v = reader.next(p.type, what, index);
@@ -402,7 +410,8 @@ TriangleMesh read_ply(const std::string& path) {
         }
         if (static_cast<int>(i) == face_list) {
           if (polygon.size() < 3)
-            throw input_error(path + ": face " + std::to_string(index) + " has fewer than 3 vertices");
+            throw input_error(path + ": face " + std::to_string(index) +
+                              " has fewer than 3 vertices");
           for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
             mesh.faces.emplace_back(polygon[0], polygon[k], polygon[k + 1]);
         }

@@ -24,10 +24,10 @@ std::string ply_header(std::size_t vertex_count, std::size_t face_count);
 /// the file cannot be written.
 void write_ply(const std::string& path, const TriangleMesh& mesh);
 
-/// Reads a binary little-endian or ASCII PLY: vertices (x y z; nx ny nz and quality when all present),
-/// faces from the `vertex_indices` (or `vertex_index`) list, polygons fan-triangulated; other
-/// elements and properties are skipped. Throws input_error naming the file on a missing file, a bad
-/// header, an unsupported format (big-endian), truncated data or an out-of-range face index.
+/// Reads a binary little-endian or ASCII PLY: vertices (x y z; nx ny nz and quality when all
+/// present), faces from the `vertex_indices` (or `vertex_index`) list, polygons fan-triangulated;
+/// other elements and properties are skipped. Throws input_error naming the file on a missing file,
+/// a bad header, an unsupported format (big-endian), truncated data or an out-of-range face index.
 TriangleMesh read_ply(const std::string& path);
 
 }  // namespace aoscan

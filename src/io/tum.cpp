@@ -1,5 +1,6 @@
 /// @file tum.cpp
-/// @brief TUM file lists and trajectories: parsing with line-numbered errors, deterministic writing.
+/// @brief TUM file lists and trajectories: parsing with line-numbered errors, deterministic
+/// writing.
 #include "io/tum.h"
 
 #include <algorithm>
@@ -112,7 +113,8 @@ void write_tum_list(const std::string& path, const std::vector<TumListEntry>& en
   std::FILE* file = std::fopen(path.c_str(), "wb");
   if (!file) write_failed(path);
   write_header(file, header);
-  for (const TumListEntry& e : entries) std::fprintf(file, "%.6f %s\n", e.timestamp_s, e.path.c_str());
+  for (const TumListEntry& e : entries)
+    std::fprintf(file, "%.6f %s\n", e.timestamp_s, e.path.c_str());
   const bool failed = std::ferror(file) != 0;
   if (std::fclose(file) != 0 || failed) write_failed(path);
 }
@@ -194,9 +196,9 @@ void TrajectoryWriter::close() {
 }
 
 std::optional<Pose> associate(const std::vector<StampedPose>& poses, double t_s, double max_dt_s) {
-  const auto after = std::lower_bound(
-      poses.begin(), poses.end(), t_s,
-      [](const StampedPose& p, double t) { return p.timestamp_s < t; });
+  const auto after =
+      std::lower_bound(poses.begin(), poses.end(), t_s,
+                       [](const StampedPose& p, double t) { return p.timestamp_s < t; });
   const StampedPose* best = nullptr;
   double best_dt = max_dt_s;
   if (after != poses.begin()) {  // the last pose before t (earlier wins ties)

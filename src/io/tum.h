@@ -24,8 +24,8 @@ struct TumListEntry {
 /// input_error "FILE: cannot open" or "FILE:LINE: ..." for a line that is not `timestamp path`.
 std::vector<TumListEntry> read_tum_list(const std::string& path);
 
-/// Writes a TUM file list: `header` (each of its lines prefixed with "# ", omitted when empty), then
-/// one `%.6f path` line per entry. Throws Error (exit code 1) when the file cannot be written.
+/// Writes a TUM file list: `header` (each of its lines prefixed with "# ", omitted when empty),
+/// then one `%.6f path` line per entry. Throws Error (exit code 1) when the file cannot be written.
 void write_tum_list(const std::string& path, const std::vector<TumListEntry>& entries,
                     const std::string& header = "timestamp filename");
 
@@ -35,10 +35,10 @@ struct StampedPose {
   Pose T_world_camera;  ///< camera-to-world, metres
 };
 
-/// Reads a TUM trajectory: lines `timestamp tx ty tz qx qy qz qw` (camera-to-world, metres; Hamilton
-/// quaternion, normalised on reading); `#` comments and blank lines skipped. Keeps the file's order.
-/// Throws input_error "FILE: cannot open" or "FILE:LINE: ..." for a garbled line (wrong column
-/// count, a non-number, a non-finite value, a zero quaternion).
+/// Reads a TUM trajectory: lines `timestamp tx ty tz qx qy qz qw` (camera-to-world, metres;
+/// Hamilton quaternion, normalised on reading); `#` comments and blank lines skipped. Keeps the
+/// file's order. Throws input_error "FILE: cannot open" or "FILE:LINE: ..." for a garbled line
+/// (wrong column count, a non-number, a non-finite value, a zero quaternion).
 std::vector<StampedPose> read_trajectory(const std::string& path);
 
 /// Formats one trajectory line (with its '\n') into `buffer`; returns its length. The fixed format:

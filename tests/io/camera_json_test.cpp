@@ -62,19 +62,22 @@ TEST(CameraJson, MissingField) {
 
 TEST(CameraJson, NegativeFocalLength) {
   ScratchDir dir;
-  const auto m = error_for(dir, R"({"fx": -585, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 1})");
+  const auto m =
+      error_for(dir, R"({"fx": -585, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 1})");
   EXPECT_NE(m.find("'fx'"), std::string::npos) << m;
 }
 
 TEST(CameraJson, ZeroDepthScale) {
   ScratchDir dir;
-  const auto m = error_for(dir, R"({"fx": 585, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 0})");
+  const auto m =
+      error_for(dir, R"({"fx": 585, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 0})");
   EXPECT_NE(m.find("'depth_scale'"), std::string::npos) << m;
 }
 
 TEST(CameraJson, NanLiteralIsInvalidJson) {
   ScratchDir dir;
-  const auto m = error_for(dir, R"({"fx": NaN, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 1})");
+  const auto m =
+      error_for(dir, R"({"fx": NaN, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 1})");
   EXPECT_NE(m.find("invalid JSON"), std::string::npos) << m;
   EXPECT_NE(m.find("'fx'"), std::string::npos) << m;
 }
@@ -89,7 +92,8 @@ TEST(CameraJson, StringValue) {
 
 TEST(CameraJson, BooleanIsNotANumber) {
   ScratchDir dir;
-  const auto m = error_for(dir, R"({"fx": 585, "fy": 585, "cx": true, "cy": 240, "depth_scale": 1})");
+  const auto m =
+      error_for(dir, R"({"fx": 585, "fy": 585, "cx": true, "cy": 240, "depth_scale": 1})");
   EXPECT_NE(m.find("'cx'"), std::string::npos) << m;
 }
 

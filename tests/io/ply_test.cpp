@@ -213,8 +213,9 @@ TEST(Ply, WriteRejectsInconsistentMeshAndUnwritablePath) {
   m.faces.emplace_back(0, 1, 4);
   EXPECT_NE(error_message([&] { write_ply(dir.file("a.ply"), m); }).find("face 2"),
             std::string::npos);
-  EXPECT_NE(error_message([&] { write_ply(dir.file("no/such/dir/a.ply"), square()); })
-                .find("no/such/dir/a.ply"),
+  EXPECT_NE(error_message([&] {
+              write_ply(dir.file("no/such/dir/a.ply"), square());
+            }).find("no/such/dir/a.ply"),
             std::string::npos);
 }
 

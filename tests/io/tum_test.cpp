@@ -101,8 +101,9 @@ TEST(Trajectory, FixedFormat) {
                "1.000000000\n");
   // A rotation by -90 degrees about z given with qw < 0 comes out with qw > 0; tiny negatives
   // print as positive zero.
-  p.T_world_camera = Pose::from_quaternion(Eigen::Vector3d(-1e-12, 1.25, -3.0),
-                                           Eigen::Quaterniond(-std::sqrt(0.5), 0, 0, std::sqrt(0.5)));
+  p.T_world_camera =
+      Pose::from_quaternion(Eigen::Vector3d(-1e-12, 1.25, -3.0),
+                            Eigen::Quaterniond(-std::sqrt(0.5), 0, 0, std::sqrt(0.5)));
   ASSERT_GT(format_trajectory_line(line, sizeof line, p), 0);
   EXPECT_STREQ(line,
                "12.500000 0.000000000 1.250000000 -3.000000000 0.000000000 0.000000000 "
@@ -161,9 +162,8 @@ TEST(Trajectory, ReadsTumGroundTruthWithHeader) {
 TEST(Trajectory, GarbledLinesNameFileAndLine) {
   ScratchDir dir;
   const std::string path = dir.file("gt.txt");
-  for (const char* bad :
-       {"1 2 3 4 5 6 7\n", "1 2 3 4 5 6 7 8 9\n", "1 2 3 x 5 6 7 8\n", "1 2 3 4 0 0 0 0\n",
-        "1 2 3 inf 0 0 0 1\n"}) {
+  for (const char* bad : {"1 2 3 4 5 6 7\n", "1 2 3 4 5 6 7 8 9\n", "1 2 3 x 5 6 7 8\n",
+                          "1 2 3 4 0 0 0 0\n", "1 2 3 inf 0 0 0 1\n"}) {
     write_text(path, std::string("# header\n0 0 0 0 0 0 0 1\n") + bad);
     const std::string m = error_message([&] { read_trajectory(path); });
     EXPECT_NE(m.find(path + ":3:"), std::string::npos) << m;
