@@ -1,0 +1,424 @@
+/// @file ply.cpp
+/// @brief PLY writing (binary little-endian, fixed layout) and reading (binary LE and ASCII).
+#include "io/ply.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string_view>
+#include <vector>
+
+#include "core/status.h"
+
+namespace aoscan {
+namespace {
+
+// ---- writing ----------------------------------------------------------------------------------
+
+void put_u32(std::vector<unsigned char>& out, std::uint32_t v) {
+  out.push_back(static_cast<unsigned char>(v));
+  out.push_back(static_cast<unsigned char>(v >> 8));
+  out.push_back(static_cast<unsigned char>(v >> 16));
+  out.push_back(static_cast<unsigned char>(v >> 24));
+}
+
+void put_f32(std::vector<unsigned char>& out, float f) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &f, sizeof bits);
+  put_u32(out, bits);
+}
+
+unsigned char grey(float quality) {
+  if (!(quality > 0.0f)) return 0;  // also NaN
+  if (quality >= 1.0f) return 255;
+  return static_cast<unsigned char>(std::lround(255.0 * static_cast<double>(quality)));
+}
+
+[[noreturn]] void write_failed(const std::string& path) {
+  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno));
+}
+
+// ---- reading ----------------------------------------------------------------------------------
+
+enum class Type { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+
+bool parse_type(std::string_view name, Type& type) {
+  static const std::pair<const char*, Type> kNames[] = {
+      {"char", Type::kInt8},      {"int8", Type::kInt8},       {"uchar", Type::kUint8},
+      {"uint8", Type::kUint8},    {"short", Type::kInt16},     {"int16", Type::kInt16},
+      {"ushort", Type::kUint16},  {"uint16", Type::kUint16},   {"int", Type::kInt32},
+      {"int32", Type::kInt32},    {"uint", Type::kUint32},     {"uint32", Type::kUint32},
+      {"float", Type::kFloat32},  {"float32", Type::kFloat32}, {"double", Type::kFloat64},
+      {"float64", Type::kFloat64}};
+  for (const auto& [n, t] : kNames)
+    if (name == n) {
+      type = t;
+      return true;
+    }
+  return false;
+}
+
+std::size_t type_size(Type t) {
+  switch (t) {
+    case Type::kInt8:
+    case Type::kUint8:
+      return 1;
+    case Type::kInt16:
+    case Type::kUint16:
+      return 2;
+    case Type::kInt32:
+    case Type::kUint32:
+    case Type::kFloat32:
+      return 4;
+    case Type::kFloat64:
+      return 8;
+  }
+  return 1;
+}
+
+struct Property {
+  std::string name;
+  Type type = Type::kFloat32;
+  bool is_list = false;
+  Type count_type = Type::kUint8;
+};
+
+struct Element {
+  std::string name;
+  std::uint64_t count = 0;
+  std::vector<Property> properties;
+};
+
+std::vector<std::string_view> split(std::string_view line) {
+  std::vector<std::string_view> tokens;
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    const std::size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
+    if (i > start) tokens.push_back(line.substr(start, i - start));
+  }
+  return tokens;
+}
+
+/// Sequential reader of the data section, binary little-endian or ASCII.
+class DataReader {
+ public:
+  DataReader(const std::string& path, std::string_view data, bool ascii)
+      : path_(path), data_(data), ascii_(ascii) {}
+
+  /// The next value of type `t` as a double; `what` names the element instance for messages.
+  double next(Type t, const char* what, std::uint64_t index) {
+    return ascii_ ? next_ascii(what, index) : next_binary(t, what, index);
+  }
+  std::size_t remaining() const { return data_.size() - pos_; }
+
+ private:
+  [[noreturn]] void truncated(const char* what, std::uint64_t index) const {
+    throw input_error(path_ + ": truncated or malformed PLY data at " + what + " " +
+                      std::to_string(index));
+  }
+
+  double next_binary(Type t, const char* what, std::uint64_t index) {
+    const std::size_t n = type_size(t);
+    if (remaining() < n) truncated(what, index);
+    unsigned char b[8];
+    std::memcpy(b, data_.data() + pos_, n);
+    pos_ += n;
+    std::uint64_t u = 0;
+    for (std::size_t i = 0; i < n; ++i) u |= static_cast<std::uint64_t>(b[i]) << (8 * i);
+    switch (t) {
+      case Type::kInt8:
+        return static_cast<std::int8_t>(u);
+      case Type::kUint8:
+        return static_cast<double>(u);
+      case Type::kInt16:
+        return static_cast<std::int16_t>(u);
+      case Type::kUint16:
+        return static_cast<double>(u);
+      case Type::kInt32:
+        return static_cast<std::int32_t>(static_cast<std::uint32_t>(u));
+      case Type::kUint32:
+        return static_cast<double>(u);
+      case Type::kFloat32: {
+        const auto bits = static_cast<std::uint32_t>(u);
+        float f;
+        std::memcpy(&f, &bits, sizeof f);
+        return f;
+      }
+      case Type::kFloat64: {
+        double d;
+        std::memcpy(&d, &u, sizeof d);
+        return d;
+      }
+    }
+    return 0.0;
+  }
+
+  double next_ascii(const char* what, std::uint64_t index) {
+    while (pos_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    const std::size_t start = pos_;
+    while (pos_ < data_.size() && !std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    if (pos_ == start) truncated(what, index);
+    const char* first = data_.data() + start;
+    const char* last = data_.data() + pos_;
+    if (*first == '+') ++first;
+    double v = 0;
+    const auto result = std::from_chars(first, last, v);
+    if (result.ec != std::errc() || result.ptr != last) truncated(what, index);
+    return v;
+  }
+
+  const std::string& path_;
+  std::string_view data_;
+  bool ascii_;
+  std::size_t pos_ = 0;
+};
+
+/// Smallest number of bytes (binary) or tokens (ASCII) one instance of `e` takes.
+std::uint64_t min_instance_size(const Element& e, bool ascii) {
+  std::uint64_t n = 0;
+  for (const Property& p : e.properties)
+    n += ascii ? 1 : type_size(p.is_list ? p.count_type : p.type);
+  return std::max<std::uint64_t>(n, 1);
+}
+
+}  // namespace
+
+std::string ply_header(std::size_t vertex_count, std::size_t face_count) {
+  return "ply\n"
+         "format binary_little_endian 1.0\n"
+         "element vertex " +
+         std::to_string(vertex_count) +
+         "\n"
+         "property float x\n"
+         "property float y\n"
+         "property float z\n"
+         "property float nx\n"
+         "property float ny\n"
+         "property float nz\n"
+         "property float quality\n"
+         "property uchar red\n"
+         "property uchar green\n"
+         "property uchar blue\n"
+         "element face " +
+         std::to_string(face_count) +
+         "\n"
+         "property list uchar int vertex_indices\n"
+         "end_header\n";
+}
+
+void write_ply(const std::string& path, const TriangleMesh& mesh) {
+  const std::size_t n = mesh.vertices.size();
+  if (!mesh.normals.empty() && mesh.normals.size() != n)
+    throw usage_error(path + ": mesh has " + std::to_string(mesh.normals.size()) + " normals for " +
+                      std::to_string(n) + " vertices");
+  if (!mesh.quality.empty() && mesh.quality.size() != n)
+    throw usage_error(path + ": mesh has " + std::to_string(mesh.quality.size()) +
+                      " quality values for " + std::to_string(n) + " vertices");
+  if (n > static_cast<std::size_t>(INT32_MAX))
+    throw usage_error(path + ": too many vertices for int face indices");
+  for (std::size_t f = 0; f < mesh.faces.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (mesh.faces[f][k] < 0 || static_cast<std::size_t>(mesh.faces[f][k]) >= n)
+        throw usage_error(path + ": face " + std::to_string(f) + " has vertex index " +
+                          std::to_string(mesh.faces[f][k]) + " out of range");
+
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) write_failed(path);
+  const std::string header = ply_header(n, mesh.faces.size());
+  bool ok = std::fwrite(header.data(), 1, header.size(), file) == header.size();
+
+  constexpr std::size_t kChunk = 1 << 20;
+  std::vector<unsigned char> buffer;
+  buffer.reserve(kChunk + 64);
+  auto flush = [&] {
+    if (ok && !buffer.empty())
+      ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
+    buffer.clear();
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& v = mesh.vertices[i];
+    const Eigen::Vector3f normal = mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i];
+    const float quality = mesh.quality.empty() ? 1.0f : mesh.quality[i];
+    for (int k = 0; k < 3; ++k) put_f32(buffer, v[k]);
+    for (int k = 0; k < 3; ++k) put_f32(buffer, normal[k]);
+    put_f32(buffer, quality);
+    const unsigned char g = grey(quality);
+    buffer.insert(buffer.end(), {g, g, g});
+    if (buffer.size() >= kChunk) flush();
+  }
+  for (const Eigen::Vector3i& face : mesh.faces) {
+    buffer.push_back(3);
+    for (int k = 0; k < 3; ++k) put_u32(buffer, static_cast<std::uint32_t>(face[k]));
+    if (buffer.size() >= kChunk) flush();
+  }
+  flush();
+  ok = std::ferror(file) == 0 && ok;
+  if (std::fclose(file) != 0 || !ok) write_failed(path);
+}
+
+TriangleMesh read_ply(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw input_error(path + ": cannot open PLY file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) throw input_error(path + ": cannot read PLY file");
+  const std::string text = buffer.str();
+
+  // Header: lines up to and including "end_header".
+  std::size_t pos = 0;
+  auto next_line = [&](std::string_view& line) {
+    if (pos >= text.size()) return false;
+    auto end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    line = std::string_view(text).substr(pos, end - pos);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    pos = std::min(end + 1, text.size());
+    return true;
+  };
+  std::string_view line;
+  if (!next_line(line) || line != "ply") throw input_error(path + ": not a PLY file");
+  bool ascii = false, have_format = false, ended = false;
+  std::vector<Element> elements;
+  while (next_line(line)) {
+    const auto tokens = split(line);
+    if (tokens.empty() || tokens[0] == "comment" || tokens[0] == "obj_info") continue;
+    const std::string bad =
+        path + ": bad PLY header line '" + std::string(line.substr(0, 60)) + "'";
+    if (tokens[0] == "end_header") {
+      ended = true;
+      break;
+    } else if (tokens[0] == "format") {
+      if (tokens.size() != 3) throw input_error(bad);
+      if (tokens[1] == "ascii") {
+        ascii = true;
+      } else if (tokens[1] != "binary_little_endian") {
+        throw input_error(path + ": unsupported PLY format '" + std::string(tokens[1]) + "'");
+      }
+      have_format = true;
+    } else if (tokens[0] == "element") {
+      if (tokens.size() != 3) throw input_error(bad);
+      Element e;
+      e.name = std::string(tokens[1]);
+      const auto r =
+          std::from_chars(tokens[2].data(), tokens[2].data() + tokens[2].size(), e.count);
+      if (r.ec != std::errc() || r.ptr != tokens[2].data() + tokens[2].size())
+        throw input_error(bad);
+      elements.push_back(std::move(e));
+    } else if (tokens[0] == "property") {
+      if (elements.empty()) throw input_error(bad);
+      Property p;
+      if (tokens.size() == 3 && parse_type(tokens[1], p.type)) {
+        p.name = std::string(tokens[2]);
+      } else if (tokens.size() == 5 && tokens[1] == "list" && parse_type(tokens[2], p.count_type) &&
+                 parse_type(tokens[3], p.type)) {
+        p.is_list = true;
+        p.name = std::string(tokens[4]);
+      } else {
+        throw input_error(bad);
+      }
+      elements.back().properties.push_back(std::move(p));
+    } else {
+      throw input_error(bad);
+    }
+  }
+  if (!ended) throw input_error(path + ": PLY header has no end_header");
+  if (!have_format) throw input_error(path + ": PLY header has no format line");
+
+  DataReader reader(path, std::string_view(text).substr(pos), ascii);
+  TriangleMesh mesh;
+  bool have_vertices = false;
+  for (const Element& e : elements) {
+    if (e.count > reader.remaining() / min_instance_size(e, ascii) + 1)
+      throw input_error(path + ": truncated PLY data, too short for " + std::to_string(e.count) +
+                        " " + e.name + " elements");
+    const bool is_vertex = e.name == "vertex";
+    const bool is_face = e.name == "face";
+    // Column roles of the vertex element: 0-2 position, 3-5 normal, 6 quality, -1 ignored.
+    std::vector<int> role(e.properties.size(), -1);
+    int face_list = -1;
+    if (is_vertex) {
+      static const char* kNames[] = {"x", "y", "z", "nx", "ny", "nz", "quality"};
+      bool found[7] = {};
+      for (std::size_t i = 0; i < e.properties.size(); ++i)
+        for (int r = 0; r < 7; ++r)
+          if (e.properties[i].name == kNames[r] && !e.properties[i].is_list) {
+            role[i] = r;
+            found[r] = true;
+          }
+      if (!found[0] || !found[1] || !found[2])
+        throw input_error(path + ": PLY vertex element lacks x, y or z");
+      const bool normals = found[3] && found[4] && found[5];
+      if (!normals)
+        for (int& r : role)
+          if (r >= 3 && r <= 5) r = -1;
+      have_vertices = true;
+      mesh.vertices.resize(e.count);
+      if (normals) mesh.normals.resize(e.count);
+      if (found[6]) mesh.quality.resize(e.count);
+    }
+    if (is_face)
+      for (std::size_t i = 0; i < e.properties.size(); ++i)
+        if (e.properties[i].is_list &&
+            (e.properties[i].name == "vertex_indices" || e.properties[i].name == "vertex_index"))
+          face_list = static_cast<int>(i);
+
+    const char* what = e.name.c_str();
+    std::vector<int> polygon;
+    for (std::uint64_t index = 0; index < e.count; ++index) {
+      for (std::size_t i = 0; i < e.properties.size(); ++i) {
+        const Property& p = e.properties[i];
+        if (!p.is_list) {
+          const double v = reader.next(p.type, what, index);
+          if (is_vertex && role[i] >= 0) {
+            const int r = role[i];
+            const auto f = static_cast<float>(v);
+            if (r < 3) {
+              mesh.vertices[index][r] = f;
+            } else if (r < 6) {
+              mesh.normals[index][r - 3] = f;
+            } else {
+              mesh.quality[index] = f;
+            }
+          }
+          continue;
+        }
+        const double count = reader.next(p.count_type, what, index);
+        if (!(count >= 0) || count != std::floor(count))
+          throw input_error(path + ": bad list length in " + e.name + " " + std::to_string(index));
+        if (count > static_cast<double>(reader.remaining()))  // every item takes a byte at least
+          throw input_error(path + ": truncated PLY data at " + e.name + " " +
+                            std::to_string(index));
+        polygon.clear();
+        for (int k = 0; k < static_cast<int>(count); ++k) {
+          const double v = reader.next(p.type, what, index);
+          if (static_cast<int>(i) == face_list) {
+            if (!have_vertices || !(v >= 0) || v >= static_cast<double>(mesh.vertices.size()) ||
+                v != std::floor(v))
+              throw input_error(path + ": face " + std::to_string(index) +
+                                " has a vertex index out of range");
+            polygon.push_back(static_cast<int>(v));
+          }
+        }
+        if (static_cast<int>(i) == face_list) {
+          if (polygon.size() < 3)
+            throw input_error(path + ": face " + std::to_string(index) +
+                              " has fewer than 3 vertices");
+          for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
+            mesh.faces.emplace_back(polygon[0], polygon[k], polygon[k + 1]);
+        }
+      }
+    }
+  }
+  return mesh;
+}
+
+}  // namespace aoscan

@@ -1,0 +1,223 @@
+// Tests for src/io/ply.h: the contract's exact header and layout, round trips, determinism,
+// ASCII reading and rejected inputs.
+#include "io/ply.h"
+
+#include <cstring>
+#include <functional>
+
+#include <gtest/gtest.h>
+
+#include "core/status.h"
+#include "io/scratch_dir.h"
+
+namespace aoscan {
+namespace {
+
+using testing::read_bytes;
+using testing::ScratchDir;
+using testing::write_text;
+
+constexpr std::size_t kVertexBytes = 7 * 4 + 3;
+constexpr std::size_t kFaceBytes = 1 + 3 * 4;
+
+/// A unit square in z = 1 made of two triangles, with normals and AO.
+TriangleMesh square() {
+  TriangleMesh m;
+  m.vertices = {{0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1.0f / 3.0f}};
+  m.normals = {{0, 0, -1}, {0, 0, -1}, {0.6f, 0, -0.8f}, {0, 0, -1}};
+  m.quality = {0.0f, 0.25f, 0.5f, 1.0f};
+  m.faces = {{0, 1, 2}, {0, 2, 3}};
+  return m;
+}
+
+std::string error_message(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no error thrown";
+  return "";
+}
+
+float float_at(const std::string& bytes, std::size_t offset) {
+  unsigned char b[4];
+  std::memcpy(b, bytes.data() + offset, 4);
+  const std::uint32_t bits = b[0] | (b[1] << 8) | (b[2] << 16) | (std::uint32_t{b[3]} << 24);
+  float f;
+  std::memcpy(&f, &bits, 4);
+  return f;
+}
+
+TEST(Ply, HeaderAndLayoutAsTheContractSays) {
+  ScratchDir dir;
+  write_ply(dir.file("mesh.ply"), square());
+  const std::string bytes = read_bytes(dir.file("mesh.ply"));
+  const std::string header =
+      "ply\n"
+      "format binary_little_endian 1.0\n"
+      "element vertex 4\n"
+      "property float x\n"
+      "property float y\n"
+      "property float z\n"
+      "property float nx\n"
+      "property float ny\n"
+      "property float nz\n"
+      "property float quality\n"
+      "property uchar red\n"
+      "property uchar green\n"
+      "property uchar blue\n"
+      "element face 2\n"
+      "property list uchar int vertex_indices\n"
+      "end_header\n";
+  ASSERT_EQ(bytes.size(), header.size() + 4 * kVertexBytes + 2 * kFaceBytes);
+  EXPECT_EQ(bytes.substr(0, header.size()), header);
+  EXPECT_EQ(ply_header(4, 2), header);
+  // Vertex 2: position, normal, quality 0.5 and grey round(127.5) = 128.
+  const std::size_t v2 = header.size() + 2 * kVertexBytes;
+  EXPECT_EQ(float_at(bytes, v2 + 0), 1.0f);
+  EXPECT_EQ(float_at(bytes, v2 + 12), 0.6f);
+  EXPECT_EQ(float_at(bytes, v2 + 20), -0.8f);
+  EXPECT_EQ(float_at(bytes, v2 + 24), 0.5f);
+  EXPECT_EQ(bytes.substr(v2 + 28, 3), std::string(3, static_cast<char>(128)));
+  // Grey of the other vertices: 0, round(63.75) = 64, 255.
+  EXPECT_EQ(static_cast<unsigned char>(bytes[header.size() + 28]), 0);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[header.size() + kVertexBytes + 28]), 64);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[header.size() + 3 * kVertexBytes + 30]), 255);
+  // Face 1: count 3, then 0 2 3 as little-endian int32.
+  const std::size_t f1 = header.size() + 4 * kVertexBytes + kFaceBytes;
+  EXPECT_EQ(bytes.substr(f1, kFaceBytes),
+            std::string("\x03\x00\x00\x00\x00\x02\x00\x00\x00\x03\x00\x00\x00", kFaceBytes));
+}
+
+TEST(Ply, RoundTripIsExact) {
+  ScratchDir dir;
+  const TriangleMesh m = square();
+  write_ply(dir.file("mesh.ply"), m);
+  const TriangleMesh back = read_ply(dir.file("mesh.ply"));
+  EXPECT_EQ(back.vertices, m.vertices);
+  EXPECT_EQ(back.normals, m.normals);
+  EXPECT_EQ(back.quality, m.quality);
+  EXPECT_EQ(back.faces, m.faces);
+}
+
+TEST(Ply, IdenticalInputGivesIdenticalBytes) {
+  ScratchDir dir;
+  TriangleMesh m;
+  for (int i = 0; i < 50000; ++i) {  // several write chunks
+    m.vertices.emplace_back(i * 0.001f, std::sin(i * 0.01f), 2.0f);
+    m.quality.push_back(static_cast<float>(i % 101) / 100.0f);
+  }
+  for (int i = 0; i + 2 < 50000; i += 3) m.faces.emplace_back(i, i + 1, i + 2);
+  write_ply(dir.file("a.ply"), m);
+  write_ply(dir.file("b.ply"), m);
+  const std::string a = read_bytes(dir.file("a.ply"));
+  EXPECT_EQ(a, read_bytes(dir.file("b.ply")));
+  const TriangleMesh back = read_ply(dir.file("a.ply"));
+  EXPECT_EQ(back.vertices, m.vertices);
+  EXPECT_EQ(back.quality, m.quality);
+  EXPECT_EQ(back.faces, m.faces);
+  EXPECT_EQ(back.normals, std::vector<Eigen::Vector3f>(m.vertices.size(), Eigen::Vector3f::Zero()));
+}
+
+TEST(Ply, MissingNormalsAndQualityWriteZerosAndOne) {
+  ScratchDir dir;
+  TriangleMesh m = square();
+  m.normals.clear();
+  m.quality.clear();
+  write_ply(dir.file("mesh.ply"), m);
+  const TriangleMesh back = read_ply(dir.file("mesh.ply"));
+  EXPECT_EQ(back.normals, std::vector<Eigen::Vector3f>(4, Eigen::Vector3f::Zero()));
+  EXPECT_EQ(back.quality, std::vector<float>(4, 1.0f));
+  const std::string bytes = read_bytes(dir.file("mesh.ply"));
+  EXPECT_EQ(static_cast<unsigned char>(bytes[ply_header(4, 2).size() + 29]), 255);
+}
+
+TEST(Ply, EmptyMesh) {
+  ScratchDir dir;
+  write_ply(dir.file("mesh.ply"), TriangleMesh{});
+  EXPECT_EQ(read_bytes(dir.file("mesh.ply")), ply_header(0, 0));
+  EXPECT_TRUE(read_ply(dir.file("mesh.ply")).empty());
+}
+
+TEST(Ply, ReadsAsciiWithPolygonsAndExtraElements) {
+  ScratchDir dir;
+  write_text(dir.file("a.ply"),
+             "ply\r\nformat ascii 1.0\r\ncomment made by hand\r\n"
+             "element vertex 4\r\nproperty double x\r\nproperty double y\r\nproperty double z\r\n"
+             "property uchar red\r\nproperty float quality\r\n"
+             "element face 1\r\nproperty list uchar uint vertex_index\r\n"
+             "element edge 1\r\nproperty int a\r\nproperty int b\r\n"
+             "end_header\r\n"
+             "0 0 0 255 0.5\r\n1 0 0 255 0.25\r\n1 1 0 1 1\r\n0 1 -2.5e-1 0 +0\r\n"
+             "4 0 1 2 3\r\n0 1\r\n");
+  const TriangleMesh m = read_ply(dir.file("a.ply"));
+  ASSERT_EQ(m.vertices.size(), 4u);
+  EXPECT_EQ(m.vertices[3], Eigen::Vector3f(0, 1, -0.25f));
+  EXPECT_TRUE(m.normals.empty());
+  EXPECT_EQ(m.quality, (std::vector<float>{0.5f, 0.25f, 1.0f, 0.0f}));
+  EXPECT_EQ(m.faces, (std::vector<Eigen::Vector3i>{{0, 1, 2}, {0, 2, 3}}));
+}
+
+TEST(Ply, RejectsBadFiles) {
+  ScratchDir dir;
+  const std::string path = dir.file("bad.ply");
+  auto expect_input_error = [&](const std::string& content, const std::string& part) {
+    write_text(path, content);
+    try {
+      read_ply(path);
+      ADD_FAILURE() << "no error for " << part;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ExitCode::kBadInput);
+      const std::string m = e.what();
+      EXPECT_NE(m.find(path), std::string::npos) << m;
+      EXPECT_NE(m.find(part), std::string::npos) << m;
+    }
+  };
+  expect_input_error("solid cube\n", "not a PLY");
+  expect_input_error("ply\nformat binary_big_endian 1.0\nelement vertex 0\nend_header\n",
+                     "binary_big_endian");
+  expect_input_error("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header");
+  expect_input_error("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+                     "x, y or z");
+  expect_input_error(
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+      "face 0");
+  expect_input_error(
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n0 0 0\n1 zero 0\n",
+      "vertex 1");
+  expect_input_error(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n0123456789ab",
+      "too short");
+
+  // A valid binary file cut anywhere in its data is rejected, never read past its end.
+  write_ply(path, square());
+  const std::string full = read_bytes(path);
+  for (std::size_t cut = ply_header(4, 2).size(); cut < full.size(); cut += 5)
+    expect_input_error(full.substr(0, cut), "truncated");
+  EXPECT_NE(error_message([&] { read_ply(dir.file("none.ply")); }).find("none.ply"),
+            std::string::npos);
+}
+
+TEST(Ply, WriteRejectsInconsistentMeshAndUnwritablePath) {
+  ScratchDir dir;
+  TriangleMesh m = square();
+  m.normals.pop_back();
+  EXPECT_NE(error_message([&] { write_ply(dir.file("a.ply"), m); }).find("normals"),
+            std::string::npos);
+  m = square();
+  m.faces.emplace_back(0, 1, 4);
+  EXPECT_NE(error_message([&] { write_ply(dir.file("a.ply"), m); }).find("face 2"),
+            std::string::npos);
+  EXPECT_NE(error_message([&] {
+              write_ply(dir.file("no/such/dir/a.ply"), square());
+            }).find("no/such/dir/a.ply"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace aoscan
