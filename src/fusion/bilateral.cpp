@@ -32,10 +32,12 @@ struct BilateralParams {
 
   explicit BilateralParams(const PreprocessConfig& config) {
     radius = std::clamp(config.bilateral_radius_px, 0, kMaxRadius);
-    const double sd = config.bilateral_sigma_depth_m;
+    // Sigmas below the configuration's ranges (possible for a hand-made config) are clamped so
+    // that the weights stay finite.
+    const double sd = std::max(config.bilateral_sigma_depth_m, 1e-6);
     neg_inv_two_sigma_depth_sq = static_cast<float>(-1.0 / (2.0 * sd * sd));
     cutoff_m = static_cast<float>(3.0 * sd);
-    const double ss = config.bilateral_sigma_space_px;
+    const double ss = std::max(config.bilateral_sigma_space_px, 1e-3);
     const int side = 2 * radius + 1;
     for (int dy = -radius; dy <= radius; ++dy)
       for (int dx = -radius; dx <= radius; ++dx)

@@ -1,5 +1,6 @@
 /// @file pyramid.cpp
 /// @brief The tracking pyramid: 2x2 depth downsampling, vertex maps and normal maps per level.
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -16,6 +17,8 @@ void downsample_depth(const Image<float>& depth_m, float max_depth_diff_m, Image
   const int w = depth_m.width() / 2;
   const int h = depth_m.height() / 2;
   out.resize(w, h);
+  // The reference depth always counts itself, so the average below never divides by zero.
+  max_depth_diff_m = std::max(max_depth_diff_m, 0.0f);
   for (int y = 0; y < h; ++y) {
     const float* r0 = depth_m.row(2 * y);
     const float* r1 = depth_m.row(2 * y + 1);
