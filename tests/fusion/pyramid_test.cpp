@@ -1,0 +1,219 @@
+/// @file pyramid_test.cpp
+/// @brief Tests for src/fusion/pyramid.cpp on analytic scenes: vertex and normal maps of planes and
+/// a sphere, 2x2 downsampling, pyramid levels and intrinsics.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "core/status.h"
+#include "fusion/prep_test_util.h"
+#include "fusion/preprocess.h"
+
+namespace aoscan {
+namespace {
+
+const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
+
+double angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+/// The plane n . p = d facing the camera, for the tests below.
+struct Plane {
+  Eigen::Vector3d n;
+  double d;
+};
+
+const Plane kPlanes[] = {
+    {Eigen::Vector3d(0, 0, -1), -2.0},                      // fronto-parallel at 2 m
+    {Eigen::Vector3d(0.3, -0.2, -1).normalized(), -1.5},    // tilted
+    {Eigen::Vector3d(-0.8, 0.1, -0.6).normalized(), -1.2},  // strongly slanted (53 degrees)
+};
+
+TEST(VertexNormalMaps, PlaneVerticesLieOnThePlaneAndNormalsEqualItsNormal) {
+  for (const Plane& plane : kPlanes) {
+    const Image<float> depth = test::render_plane(kKinect, plane.n, plane.d);
+    Image<Eigen::Vector3f> vertices, normals;
+    compute_vertex_map(depth, kKinect, vertices);
+    compute_normal_map(vertices, 1.0f, normals);
+    // The plane's normal oriented towards the camera: n . p = d < 0 for points in front.
+    const Eigen::Vector3d facing = plane.d < 0 ? plane.n : -plane.n;
+    double worst_distance = 0, worst_angle = 0;
+    int normals_checked = 0;
+    for (int y = 0; y < kKinect.height; ++y)
+      for (int x = 0; x < kKinect.width; ++x) {
+        const Eigen::Vector3d v = vertices(x, y).cast<double>();
+        if (depth(x, y) == 0.0f) {
+          EXPECT_EQ(vertices(x, y), Eigen::Vector3f::Zero());
+          continue;
+        }
+        EXPECT_EQ(vertices(x, y),
+                  kKinect.unproject(static_cast<float>(x), static_cast<float>(y), depth(x, y)));
+        worst_distance = std::max(worst_distance, std::abs(plane.n.dot(v) - plane.d));
+        if (x + 1 < kKinect.width && y + 1 < kKinect.height) {
+          ASSERT_NEAR(normals(x, y).norm(), 1.0f, 1e-6f) << x << "," << y;
+          worst_angle = std::max(worst_angle, angle(normals(x, y).cast<double>(), facing));
+          ++normals_checked;
+        } else {
+          EXPECT_EQ(normals(x, y), Eigen::Vector3f::Zero());
+        }
+      }
+    EXPECT_EQ(normals_checked, (kKinect.width - 1) * (kKinect.height - 1));
+    EXPECT_LT(worst_distance, 1e-5);
+    // Float vertices carry about 1 ulp of z (1.2e-7 z) of error; over the pixel spacing z / f this
+    // tilts a forward-difference normal by up to about 2 f ulp / z ~ 1.4e-4 rad for f = 585.
+    EXPECT_LT(worst_angle, 3e-4) << plane.n.transpose();
+  }
+}
+
+TEST(VertexNormalMaps, SphereNormalsPointAwayFromTheCentre) {
+  const Eigen::Vector3d centre(0.1, -0.05, 2.0);
+  const double radius = 0.5;
+  const Image<float> depth = test::render_sphere(kKinect, centre, radius);
+  Image<Eigen::Vector3f> vertices, normals;
+  compute_vertex_map(depth, kKinect, vertices);
+  compute_normal_map(vertices, 0.05f, normals);
+  double worst_pixel = 0, worst_triangle = 0, worst_radius = 0;
+  int checked = 0;
+  for (int y = 0; y < kKinect.height; ++y)
+    for (int x = 0; x < kKinect.width; ++x) {
+      if (depth(x, y) == 0.0f) continue;
+      const Eigen::Vector3d v = vertices(x, y).cast<double>();
+      worst_radius = std::max(worst_radius, std::abs((v - centre).norm() - radius));
+      const Eigen::Vector3d expected = (v - centre) / radius;
+      // Restrict to where the surface faces the camera within 60 degrees (no grazing limb).
+      if (expected.dot(-v.normalized()) < 0.5 || normals(x, y).isZero()) continue;
+      const Eigen::Vector3d n = normals(x, y).cast<double>();
+      worst_pixel = std::max(worst_pixel, angle(n, expected));
+      // The forward-difference normal is the normal of the plane through v and its right and
+      // down neighbours; on a sphere that plane's normal points from the centre to the
+      // triangle's circumcentre, which makes an exact reference up to float rounding.
+      const Eigen::Vector3d u = vertices(x + 1, y).cast<double>() - v;
+      const Eigen::Vector3d w = vertices(x, y + 1).cast<double>() - v;
+      const Eigen::Vector3d uw = u.cross(w);
+      const Eigen::Vector3d circumcentre =
+          v + (u.squaredNorm() * w - w.squaredNorm() * u).cross(uw) / (2.0 * uw.squaredNorm());
+      worst_triangle = std::max(worst_triangle, angle(n, (circumcentre - centre).normalized()));
+      ++checked;
+    }
+  EXPECT_GT(checked, 20000);
+  EXPECT_LT(worst_radius, 1e-5);
+  // At the pixel itself the normal is off by about half a pixel footprint over the radius,
+  // 0.7 (z / f) / r / cos(60 deg) ~ 0.01 rad at 2 m.
+  EXPECT_LT(worst_pixel, 0.015);
+  EXPECT_LT(worst_triangle, 3e-4);  // float rounding only, as for the plane
+}
+
+TEST(VertexNormalMaps, NoNormalAcrossJumpsHolesOrAtTheLastRowAndColumn) {
+  Image<float> depth(8, 6, 1.0f);
+  for (int y = 0; y < 6; ++y)
+    for (int x = 5; x < 8; ++x) depth(x, y) = 1.2f;  // 20 cm step between x = 4 and x = 5
+  depth(2, 2) = 0.0f;                                // a hole
+  const Intrinsics k{8, 6, 10.0, 10.0, 3.5, 2.5};
+  Image<Eigen::Vector3f> vertices, normals;
+  compute_vertex_map(depth, k, vertices);
+  compute_normal_map(vertices, 0.05f, normals);
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 8; ++x) {
+      const bool none = x == 7 || y == 5 || x == 4 ||                // border, step
+                        (x == 2 && y == 2) || (x == 1 && y == 2) ||  // hole, left of the hole
+                        (x == 2 && y == 1);                          // above the hole
+      if (none) {
+        EXPECT_EQ(normals(x, y), Eigen::Vector3f::Zero()) << x << "," << y;
+      } else {
+        EXPECT_NEAR((normals(x, y) - Eigen::Vector3f(0, 0, -1)).norm(), 0.0f, 1e-6f)
+            << x << "," << y;
+      }
+    }
+  // A larger threshold keeps the step's normals (they are then slanted, still unit length).
+  compute_normal_map(vertices, 0.5f, normals);
+  EXPECT_NEAR(normals(4, 0).norm(), 1.0f, 1e-6f);
+  EXPECT_LT(normals(4, 0).dot(vertices(4, 0)), 0.0f);
+}
+
+TEST(Downsample, AveragesOnlyTheSameSurface) {
+  Image<float> depth(5, 4, 0.0f);  // odd width: the last column is dropped
+  // Block (0, 0): all valid, one far outlier beyond 9 cm of the first value.
+  depth(0, 0) = 1.0f;
+  depth(1, 0) = 1.02f;
+  depth(0, 1) = 1.04f;
+  depth(1, 1) = 2.0f;
+  // Block (1, 0): first valid in raster order is the bottom-left one.
+  depth(3, 1) = 3.0f;
+  depth(2, 1) = 2.95f;
+  // Block (0, 1) stays empty; block (1, 1) is constant.
+  for (int y = 2; y < 4; ++y)
+    for (int x = 2; x < 4; ++x) depth(x, y) = 1.7f;
+  depth(4, 0) = 9.0f;  // dropped column
+  Image<float> out;
+  downsample_depth(depth, 0.09f, out);
+  ASSERT_EQ(out.width(), 2);
+  ASSERT_EQ(out.height(), 2);
+  EXPECT_FLOAT_EQ(out(0, 0), (1.0f + 1.02f + 1.04f) / 3.0f);
+  EXPECT_FLOAT_EQ(out(1, 0), (2.95f + 3.0f) / 2.0f);
+  EXPECT_EQ(out(0, 1), 0.0f);
+  EXPECT_EQ(out(1, 1), 1.7f);  // exactly
+}
+
+TEST(Pyramid, LevelsIntrinsicsAndMapsAreConsistent) {
+  const Plane& plane = kPlanes[1];
+  const Image<float> depth = test::render_plane(kKinect, plane.n, plane.d);
+  DepthPyramid pyramid;
+  build_pyramid(depth, kKinect, pyramid);
+  EXPECT_EQ(pyramid.depth_m[0], depth);
+  for (int level = 0; level < kPyramidLevels; ++level) {
+    const Intrinsics k = kKinect.scaled(level);
+    const PointMaps& maps = pyramid.maps[level];
+    EXPECT_EQ(maps.intrinsics, k);
+    EXPECT_EQ(pyramid.depth_m[level].width(), k.width);
+    EXPECT_EQ(pyramid.depth_m[level].height(), k.height);
+    EXPECT_EQ(maps.vertices.width(), k.width);
+    EXPECT_EQ(maps.normals.height(), k.height);
+    double worst_angle = 0;
+    for (int y = 0; y + 1 < k.height; ++y)
+      for (int x = 0; x + 1 < k.width; ++x)
+        worst_angle = std::max(worst_angle, angle(maps.normals(x, y).cast<double>(), plane.n));
+    EXPECT_LT(worst_angle, 3e-4) << "level " << level;
+  }
+  // A level-1 vertex is the mean of its block's four level-0 vertices: exact for a fronto-parallel
+  // plane; for a tilted one the mean depth differs from the depth on the centre ray by a term of
+  // second order in the pixel size.
+  for (const Plane& p : {kPlanes[0], kPlanes[1]}) {
+    build_pyramid(test::render_plane(kKinect, p.n, p.d), kKinect, pyramid);
+    double worst = 0;
+    for (int y = 0; y < kKinect.height / 2; ++y)
+      for (int x = 0; x < kKinect.width / 2; ++x) {
+        const Eigen::Vector3f mean =
+            (pyramid.maps[0].vertices(2 * x, 2 * y) + pyramid.maps[0].vertices(2 * x + 1, 2 * y) +
+             pyramid.maps[0].vertices(2 * x, 2 * y + 1) +
+             pyramid.maps[0].vertices(2 * x + 1, 2 * y + 1)) /
+            4.0f;
+        worst =
+            std::max(worst, static_cast<double>((pyramid.maps[1].vertices(x, y) - mean).norm()));
+      }
+    EXPECT_LT(worst, p.n.z() == -1.0 ? 1e-6 : 2e-5) << p.n.transpose();
+  }
+}
+
+TEST(Pyramid, SizeMismatchIsAnInputError) {
+  DepthPyramid pyramid;
+  try {
+    build_pyramid(Image<float>(320, 240, 1.0f), kKinect, pyramid);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kBadInput);
+  }
+}
+
+TEST(Pyramid, TinyImagesDoNotCrash) {
+  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{2, 2}, std::pair{3, 5}, std::pair{0, 0}}) {
+    const Intrinsics k{w, h, 10.0, 10.0, 0.0, 0.0};
+    DepthPyramid pyramid;
+    build_pyramid(Image<float>(w, h, 1.0f), k, PreprocessConfig{}, pyramid);
+    EXPECT_EQ(pyramid.depth_m[2].width(), w / 4);
+    EXPECT_EQ(pyramid.maps[2].normals.height(), h / 4);
+  }
+}
+
+}  // namespace
+}  // namespace aoscan
