@@ -97,7 +97,7 @@ DecodeResult decode(DecodeState& state, Header& header, Image<std::uint16_t>& ou
   png_read_update_info(png, info);
   const int width = static_cast<int>(png_get_image_width(png, info));
   const int height = static_cast<int>(png_get_image_height(png, info));
-  out.resize(width, height);
+  if (out.width() != width || out.height() != height) out.resize(width, height);  // else no fill
   rows.resize(static_cast<std::size_t>(height));
   for (int y = 0; y < height; ++y) rows[y] = reinterpret_cast<png_bytep>(out.row(y));
   png_read_image(png, rows.data());
