@@ -100,7 +100,8 @@ TEST(TumSource, BrokenFramesAreCountedSkipsAndTheRestDecodesExactly) {
   ASSERT_EQ(skipped.size(), 3u);
   EXPECT_EQ(skipped[0], folder + "/depth/2.png (frame 2): missing file");
   EXPECT_EQ(skipped[1], folder + "/depth/3.png (frame 3): truncated PNG");
-  EXPECT_EQ(skipped[2], folder + "/depth/4.png (frame 4): size 8x6 differs from 16x12 of the first frame");
+  EXPECT_EQ(skipped[2],
+            folder + "/depth/4.png (frame 4): size 8x6 differs from 16x12 of the first frame");
   EXPECT_EQ(source->read(frame).code(), Status::Code::kEndOfStream);  // and stays there
 }
 
@@ -159,15 +160,17 @@ TEST(TumSource, OpeningErrors) {
   ScratchDir scratch;
   EXPECT_EQ(error_message([&] { open_tum_folder(scratch.file("nope")); }),
             scratch.file("nope") + ": no such folder");
-  EXPECT_NE(error_message([&] { open_tum_folder(scratch.str()); })
-                .find(scratch.file("depth.txt") + ": missing"),
+  EXPECT_NE(error_message([&] {
+              open_tum_folder(scratch.str());
+            }).find(scratch.file("depth.txt") + ": missing"),
             std::string::npos);
   write_text(scratch.file("depth.txt"), "# nothing here\n");
   EXPECT_EQ(error_message([&] { open_tum_folder(scratch.str()); }),
             scratch.file("depth.txt") + ": lists no frames");
   write_text(scratch.file("depth.txt"), "# header\n0.0 depth/0.png\n0.1\n");
-  EXPECT_NE(error_message([&] { open_tum_folder(scratch.str()); })
-                .find(scratch.file("depth.txt") + ":3:"),
+  EXPECT_NE(error_message([&] {
+              open_tum_folder(scratch.str());
+            }).find(scratch.file("depth.txt") + ":3:"),
             std::string::npos);
   write_text(scratch.file("depth.txt"), "0.0 depth/0.png\n");
   write_text(scratch.file("camera.json"), R"({"fx": 1})");
@@ -175,8 +178,9 @@ TEST(TumSource, OpeningErrors) {
             std::string::npos);
   std::filesystem::remove(scratch.file("camera.json"));
   write_text(scratch.file("groundtruth.txt"), "# gt\n0 0 0 0 0 0 0 1\n0.1 0 0 zero 0 0 0 1\n");
-  EXPECT_NE(error_message([&] { open_tum_folder(scratch.str()); })
-                .find(scratch.file("groundtruth.txt") + ":3:"),
+  EXPECT_NE(error_message([&] {
+              open_tum_folder(scratch.str());
+            }).find(scratch.file("groundtruth.txt") + ":3:"),
             std::string::npos);
   // A folder whose frames are all unreadable opens; every read is a counted skip.
   std::filesystem::remove(scratch.file("groundtruth.txt"));
@@ -196,11 +200,10 @@ TEST(TumSource, GroundTruthByNearestTimestampWithin20ms) {
     std::snprintf(line, sizeof line, "%.6f %.3f 0 0 0 0 0.6 0.8\n", t, x);
     return std::string(line);
   };
-  write_text(folder + "/groundtruth.txt", "# timestamp tx ty tz qx qy qz qw\n" +
-                                              pose_line(1.0 + 5 / 30.0 + 0.030, 5.0) +
-                                              pose_line(1.0 + 0.010, 0.5) +
-                                              pose_line(1.0 - 0.025, -1.0) +
-                                              pose_line(1.0 + 1 / 30.0 - 0.015, 1.5));
+  write_text(folder + "/groundtruth.txt",
+             "# timestamp tx ty tz qx qy qz qw\n" + pose_line(1.0 + 5 / 30.0 + 0.030, 5.0) +
+                 pose_line(1.0 + 0.010, 0.5) + pose_line(1.0 - 0.025, -1.0) +
+                 pose_line(1.0 + 1 / 30.0 - 0.015, 1.5));
   const auto source = open_tum_folder(folder);
   DepthFrame frame;
   std::map<std::uint64_t, std::optional<Pose>> gt;
@@ -234,8 +237,8 @@ TEST(TumSource, RealRedKitchen) {
   for (int i = 0; i < kFrames; ++i) {
     const auto start = std::chrono::steady_clock::now();
     const Status s = source->read(frame);
-    read_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                   .count();
+    read_ms +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     ASSERT_TRUE(s.is_ok()) << s.message();
     EXPECT_EQ(frame.sequence, static_cast<std::uint64_t>(i));
     EXPECT_EQ(frame.depth.width(), 640);
