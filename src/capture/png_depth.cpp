@@ -92,6 +92,16 @@ DecodeResult decode(DecodeState& state, Header& header, Image<std::uint16_t>& ou
     png_destroy_read_struct(&png, &info, nullptr);
     return DecodeResult::kNotGrey16;
   }
+  // zlib cannot expand data more than about 1032:1, so a header promising far more pixels than
+  // the file can hold is corrupt; rejecting it here avoids allocating for it.
+  const double raw_bytes = static_cast<double>(png_get_image_height(png, info)) *
+                           (2.0 * png_get_image_width(png, info) + 1.0);
+  if (raw_bytes > 1100.0 * static_cast<double>(state.size)) {
+    std::snprintf(state.message, sizeof state.message, "%ux%u pixels cannot fit in %zu bytes",
+                  png_get_image_width(png, info), png_get_image_height(png, info), state.size);
+    png_destroy_read_struct(&png, &info, nullptr);
+    return DecodeResult::kFailed;
+  }
   if (host_is_little_endian()) png_set_swap(png);
   png_set_interlace_handling(png);
   png_read_update_info(png, info);
@@ -125,6 +135,7 @@ const char* colour_name(int color_type) {
 
 /// Reads the whole file into `bytes` (reused); returns 0 or an errno value.
 int read_file(const std::string& path, std::vector<unsigned char>& bytes) {
+  errno = 0;
   std::FILE* file = std::fopen(path.c_str(), "rb");
   if (!file) return errno ? errno : EIO;
   bytes.clear();
@@ -136,10 +147,10 @@ int read_file(const std::string& path, std::vector<unsigned char>& bytes) {
     used += n;
     if (n < kStep) break;
   }
-  const bool failed = std::ferror(file) != 0;
+  const int error = std::ferror(file) ? (errno ? errno : EIO) : 0;
   std::fclose(file);
   bytes.resize(used);  // never shrinks the capacity
-  return failed ? EIO : 0;
+  return error;
 }
 
 /// Encoder state for the write callbacks' error path.

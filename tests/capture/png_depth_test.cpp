@@ -1,5 +1,7 @@
-// Tests for src/capture/png_depth.h: exact round trips, PNG byte order, and every rejected input
-// (missing, not a PNG, truncated anywhere, corrupt, 8-bit, colour) as a corrupt_frame status.
+/// @file png_depth_test.cpp
+/// @brief Tests for src/capture/png_depth.h: exact round trips, PNG byte order, and every rejected
+/// input (missing, not a PNG, truncated anywhere, corrupt, 8-bit, colour) as a corrupt_frame
+/// status.
 #include "capture/png_depth.h"
 
 #include <cstdio>
@@ -7,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include <png.h>
+#include <zlib.h>
 
 #include "io/scratch_dir.h"
 
@@ -167,6 +170,24 @@ TEST(PngDepth, CorruptBytes) {
     const Status s = read_depth_png(path, out);
     EXPECT_EQ(s.code(), Status::Code::kCorruptFrame) << "byte " << at;
   }
+}
+
+TEST(PngDepth, HeaderPromisingMorePixelsThanTheDataHolds) {
+  ScratchDir dir;
+  write_depth_png(dir.file("small.png"), Image<std::uint16_t>(4, 4, 7));
+  std::string bytes = read_bytes(dir.file("small.png"));
+  // IHDR width/height (bytes 16-23) set to 30000 x 30000, with the chunk's CRC (bytes 29-32) fixed.
+  for (int k : {16, 20}) {
+    bytes[k] = 0, bytes[k + 1] = 0, bytes[k + 2] = 0x75, bytes[k + 3] = 0x30;
+  }
+  const auto crc =
+      static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(bytes.data() + 12), 17));
+  for (int k = 0; k < 4; ++k) bytes[29 + k] = static_cast<char>(crc >> (24 - 8 * k));
+  const std::string path = dir.file("huge.png");
+  write_text(path, bytes);
+  Image<std::uint16_t> out;
+  expect_corrupt(read_depth_png(path, out), path, "30000x30000 pixels cannot fit in");
+  EXPECT_LE(out.size(), 16u);  // nothing allocated for the claimed size
 }
 
 TEST(PngDepth, EightBitGrey) {

@@ -1,5 +1,6 @@
-// Tests for src/capture/recorder.h: a known in-test Source recorded and read back with
-// open_tum_folder, refusal of an existing recording, limits, and streams that end in an error.
+/// @file recorder_test.cpp
+/// @brief Tests for src/capture/recorder.h: a known in-test Source recorded and read back with
+/// open_tum_folder, refusal of an existing recording, limits, and streams that end in an error.
 #include "capture/recorder.h"
 
 #include <algorithm>

@@ -1,5 +1,6 @@
-// Tests for src/capture/tum_source.h: a TUM folder built in the test with broken frames, opening
-// errors, default calibration, ground-truth association, and the real 7-Scenes recording.
+/// @file tum_source_test.cpp
+/// @brief Tests for src/capture/tum_source.h: a TUM folder built in the test with broken frames,
+/// opening errors, default calibration, ground-truth association, and the real 7-Scenes recording.
 #include "capture/tum_source.h"
 
 #include <algorithm>
