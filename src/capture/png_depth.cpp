@@ -19,7 +19,7 @@ constexpr png_uint_32 kMaxSide = 1 << 15;
 
 /// Encoder settings: fast zlib level, and the "up" filter, which suits smooth depth and is the
 /// cheapest filter to undo when the recording is read back.
-constexpr int kCompressionLevel = 3;
+constexpr int kCompressionLevel = 2;
 constexpr int kFilters = PNG_FILTER_UP;
 
 bool host_is_little_endian() {

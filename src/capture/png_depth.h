@@ -21,7 +21,7 @@ namespace aoscan {
 Status read_depth_png(const std::string& path, Image<std::uint16_t>& out,
                       std::optional<std::uint64_t> frame_index = std::nullopt);
 
-/// Encodes `depth` (raw units) as a 16-bit greyscale PNG at `path` (zlib level 3, "up" filter:
+/// Encodes `depth` (raw units) as a 16-bit greyscale PNG at `path` (zlib level 2, "up" filter:
 /// fast to write and to read back). Throws usage_error for an empty image and Error (exit code 1)
 /// when the file cannot be written.
 void write_depth_png(const std::string& path, const Image<std::uint16_t>& depth);
