@@ -55,8 +55,8 @@ inline bool slab_interval(const SceneBox& box, const Eigen::Vector3d& o, const E
 }
 
 /// Nearest parameter in [t_min, t_max] where the ray crosses the sphere's surface.
-inline bool sphere_crossing(const SceneSphere& s, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                            double t_min, double t_max, double* t) {
+inline bool sphere_crossing(const SceneSphere& s, const Eigen::Vector3d& o,
+                            const Eigen::Vector3d& d, double t_min, double t_max, double* t) {
   const Eigen::Vector3d oc = o - s.centre;
   const double b = oc.dot(d);
   // Squared distance of the centre from the line, computed without cancellation.
@@ -104,9 +104,9 @@ void append_box(const SceneBox& box, TriangleMesh* mesh) {
       const int base = static_cast<int>(mesh->vertices.size());
       // Counter-clockwise seen from +a (e_u x e_v = e_a).
       const std::array<std::pair<double, double>, 4> uv = {{{box.min[u], box.min[v]},
-                                                             {box.max[u], box.min[v]},
-                                                             {box.max[u], box.max[v]},
-                                                             {box.min[u], box.max[v]}}};
+                                                            {box.max[u], box.min[v]},
+                                                            {box.max[u], box.max[v]},
+                                                            {box.min[u], box.max[v]}}};
       for (const auto& [cu, cv] : uv) {
         Eigen::Vector3d p;
         p[a] = coord;
@@ -139,10 +139,9 @@ UnitSphereMesh icosahedron() {
                 {0, -1, phi}, {0, 1, phi}, {0, -1, -phi}, {0, 1, -phi},
                 {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
   for (auto& v : m.vertices) v.normalize();
-  m.faces = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-             {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-             {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-             {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  m.faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+             {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+             {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   return m;
 }
 
@@ -198,39 +197,9 @@ void append_sphere(const SceneSphere& s, TriangleMesh* mesh) {
   for (const auto& f : m.faces) mesh->faces.emplace_back(f + Eigen::Vector3i::Constant(base));
 }
 
-}  // namespace
-
-void AnalyticScene::add_box(const Eigen::Vector3d& min_corner, const Eigen::Vector3d& max_corner) {
-  if (!min_corner.allFinite() || !max_corner.allFinite() ||
-      !(min_corner.array() < max_corner.array()).all()) {
-    throw usage_error("analytic scene '" + name_ + "': a box needs finite corners with min < max");
-  }
-  boxes_.push_back({min_corner, max_corner});
-}
-
-void AnalyticScene::add_sphere(const Eigen::Vector3d& centre, double radius) {
-  if (!centre.allFinite() || !std::isfinite(radius) || radius <= 0.0) {
-    throw usage_error("analytic scene '" + name_ + "': a sphere needs a finite centre and radius > 0");
-  }
-  spheres_.push_back({centre, radius});
-}
-
-void AnalyticScene::add_table(const Eigen::Vector2d& centre_xy, const Eigen::Vector3d& top_size,
-                              double height, double leg_side, double leg_inset) {
-  const double x0 = centre_xy.x() - 0.5 * top_size.x();
-  const double x1 = centre_xy.x() + 0.5 * top_size.x();
-  const double y0 = centre_xy.y() - 0.5 * top_size.y();
-  const double y1 = centre_xy.y() + 0.5 * top_size.y();
-  const double underside = height - top_size.z();
-  add_box({x0, y0, underside}, {x1, y1, height});
-  for (const double lx : {x0 + leg_inset, x1 - leg_inset - leg_side}) {
-    for (const double ly : {y0 + leg_inset, y1 - leg_inset - leg_side}) {
-      add_box({lx, ly, 0.0}, {lx + leg_side, ly + leg_side, underside});
-    }
-  }
-}
-
-bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max, Hit* hit) const {
+template <class BoxAt, class SphereAt>
+bool nearest_hit(const Ray& ray, double t_min, double t_max, int box_count, BoxAt box_at,
+                 int sphere_count, SphereAt sphere_at, Hit* hit) {
   const Eigen::Vector3d& o = ray.origin;
   const Eigen::Vector3d& d = ray.direction;
   const Eigen::Vector3d inv_d = safe_inverse(d);
@@ -239,10 +208,10 @@ bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max, Hit* h
   int best_axis = -1;
   double best_sign = 0.0;
   const SceneSphere* best_sphere = nullptr;
-  for (const SceneBox& box : boxes_) {
+  for (int i = 0; i < box_count; ++i) {
     double t_near, t_far;
     int near_axis, far_axis;
-    if (!slab_interval(box, o, d, inv_d, &t_near, &near_axis, &t_far, &far_axis)) continue;
+    if (!slab_interval(box_at(i), o, d, inv_d, &t_near, &near_axis, &t_far, &far_axis)) continue;
     if (t_near >= t_min) {
       if (t_near <= best) {
         best = t_near;
@@ -259,7 +228,8 @@ bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max, Hit* h
       found = true;
     }
   }
-  for (const SceneSphere& s : spheres_) {
+  for (int i = 0; i < sphere_count; ++i) {
+    const SceneSphere& s = sphere_at(i);
     double t;
     if (sphere_crossing(s, o, d, t_min, best, &t)) {
       best = t;
@@ -280,6 +250,54 @@ bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max, Hit* h
   return true;
 }
 
+}  // namespace
+
+void AnalyticScene::add_box(const Eigen::Vector3d& min_corner, const Eigen::Vector3d& max_corner) {
+  if (!min_corner.allFinite() || !max_corner.allFinite() ||
+      !(min_corner.array() < max_corner.array()).all()) {
+    throw usage_error("analytic scene '" + name_ + "': a box needs finite corners with min < max");
+  }
+  boxes_.push_back({min_corner, max_corner});
+}
+
+void AnalyticScene::add_sphere(const Eigen::Vector3d& centre, double radius) {
+  if (!centre.allFinite() || !std::isfinite(radius) || radius <= 0.0) {
+    throw usage_error("analytic scene '" + name_ +
+                      "': a sphere needs a finite centre and radius > 0");
+  }
+  spheres_.push_back({centre, radius});
+}
+
+void AnalyticScene::add_table(const Eigen::Vector2d& centre_xy, const Eigen::Vector3d& top_size,
+                              double height, double leg_side, double leg_inset) {
+  const double x0 = centre_xy.x() - 0.5 * top_size.x();
+  const double x1 = centre_xy.x() + 0.5 * top_size.x();
+  const double y0 = centre_xy.y() - 0.5 * top_size.y();
+  const double y1 = centre_xy.y() + 0.5 * top_size.y();
+  const double underside = height - top_size.z();
+  add_box({x0, y0, underside}, {x1, y1, height});
+  for (const double lx : {x0 + leg_inset, x1 - leg_inset - leg_side}) {
+    for (const double ly : {y0 + leg_inset, y1 - leg_inset - leg_side}) {
+      add_box({lx, ly, 0.0}, {lx + leg_side, ly + leg_side, underside});
+    }
+  }
+}
+
+bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max, Hit* hit) const {
+  return nearest_hit(
+      ray, t_min, t_max, static_cast<int>(boxes_.size()),
+      [&](int i) -> const SceneBox& { return boxes_[i]; }, static_cast<int>(spheres_.size()),
+      [&](int i) -> const SceneSphere& { return spheres_[i]; }, hit);
+}
+
+bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max,
+                              const PrimitiveSubset& subset, Hit* hit) const {
+  return nearest_hit(
+      ray, t_min, t_max, subset.box_count,
+      [&](int i) -> const SceneBox& { return boxes_[subset.boxes[i]]; }, subset.sphere_count,
+      [&](int i) -> const SceneSphere& { return spheres_[subset.spheres[i]]; }, hit);
+}
+
 bool AnalyticScene::occluded(const Ray& ray, double t_min, double t_max) const {
   const Eigen::Vector3d& o = ray.origin;
   const Eigen::Vector3d& d = ray.direction;
@@ -288,7 +306,8 @@ bool AnalyticScene::occluded(const Ray& ray, double t_min, double t_max) const {
     double t_near, t_far;
     int near_axis, far_axis;
     if (!slab_interval(box, o, d, inv_d, &t_near, &near_axis, &t_far, &far_axis)) continue;
-    if ((t_near >= t_min && t_near <= t_max) || (t_near < t_min && t_far >= t_min && t_far <= t_max))
+    if ((t_near >= t_min && t_near <= t_max) ||
+        (t_near < t_min && t_far >= t_min && t_far <= t_max))
       return true;
   }
   for (const SceneSphere& s : spheres_) {
@@ -301,7 +320,8 @@ bool AnalyticScene::occluded(const Ray& ray, double t_min, double t_max) const {
 double AnalyticScene::distance(const Eigen::Vector3d& p) const {
   double best = kInf;
   for (const SceneBox& box : boxes_) best = std::min(best, std::abs(box_signed_distance(box, p)));
-  for (const SceneSphere& s : spheres_) best = std::min(best, std::abs(sphere_signed_distance(s, p)));
+  for (const SceneSphere& s : spheres_)
+    best = std::min(best, std::abs(sphere_signed_distance(s, p)));
   return best;
 }
 
@@ -332,7 +352,9 @@ Eigen::AlignedBox3d AnalyticScene::bounds() const {
   return b;
 }
 
-std::vector<std::string> AnalyticScene::names() { return {"corner", "room", "plane"}; }
+std::vector<std::string> AnalyticScene::names() {
+  return {"corner", "room", "plane"};
+}
 
 AnalyticScene AnalyticScene::make(const std::string& name) {
   AnalyticScene scene(name);
@@ -343,8 +365,8 @@ AnalyticScene AnalyticScene::make(const std::string& name) {
   if (name == "corner") {
     // Floor and two 4 m walls meeting at the z axis; the open space is x > 0, y > 0.
     scene.add_box({-0.1, -0.1, -0.1}, {4.0, 4.0, 0.0});
-    scene.add_box({-0.1, 0.0, 0.0}, {0.0, 4.0, 2.7});   // wall x = 0, facing +x
-    scene.add_box({-0.1, -0.1, 0.0}, {4.0, 0.0, 2.7});  // wall y = 0, facing +y
+    scene.add_box({-0.1, 0.0, 0.0}, {0.0, 4.0, 2.7});    // wall x = 0, facing +x
+    scene.add_box({-0.1, -0.1, 0.0}, {4.0, 0.0, 2.7});   // wall y = 0, facing +y
     scene.add_box({0.0, 0.0, 0.0}, {0.25, 0.25, 0.25});  // small cube in the corner
     scene.add_box({0.0, 1.6, 0.0}, {0.5, 2.3, 0.8});     // cabinet against wall x = 0
     scene.add_box({1.8, 0.0, 0.0}, {2.4, 0.4, 0.5});     // crate against wall y = 0
@@ -362,7 +384,7 @@ AnalyticScene AnalyticScene::make(const std::string& name) {
     scene.add_box({2.5, 0.0, 0.0}, {3.1, 0.45, 0.45});   // crate against wall y = 0
     scene.add_box({0.0, 0.6, 0.0}, {0.5, 1.4, 0.9});     // sideboard against wall x = 0
     scene.add_table({1.0, 3.2}, table_top, kTableHeight, kLegSide, kLegInset);
-    scene.add_sphere({3.0, 2.2, 0.2}, 0.2);           // on the floor
+    scene.add_sphere({3.0, 2.2, 0.2}, 0.2);                 // on the floor
     scene.add_sphere({1.2, 3.2, kTableHeight + 0.1}, 0.1);  // on the table top
   } else if (name == "plane") {
     // One 20 x 20 m wall whose front face is the plane y = 0, facing -y.

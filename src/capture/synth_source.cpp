@@ -1,9 +1,10 @@
 /// @file synth_source.cpp
-/// @brief The `synth:` source: spec parsing, handheld trajectories, depth rendering with an optional
-/// Kinect v1 noise model.
+/// @brief The `synth:` source: spec parsing, handheld trajectories, depth rendering with an
+/// optional Kinect v1 noise model.
 #include "capture/synth_source.h"
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <exception>
@@ -92,7 +93,8 @@ double wobble(std::uint64_t seed, int channel, double time_s, double frequency_s
 }
 
 /// Camera on a circle around `centre` (x, y) at azimuth phi(t) = azimuth0 + rate t - amplitude
-/// cos(2 pi t / period), looking at the point `target_radius` beyond the centre, opposite the camera.
+/// cos(2 pi t / period), looking at the point `target_radius` beyond the centre, opposite the
+/// camera.
 struct OrbitRig {
   Eigen::Vector2d centre;
   double camera_radius_m, camera_height_m;
@@ -101,7 +103,8 @@ struct OrbitRig {
   double radius_swing_m, height_swing_m;
 };
 
-/// Camera and target moving back and forth along parallel lines: x(t) = centre - axis cos(2 pi t / T).
+/// Camera and target moving back and forth along parallel lines: x(t) = centre - axis cos(2 pi t /
+/// T).
 struct SweepRig {
   Eigen::Vector3d camera_centre, camera_axis;
   Eigen::Vector3d target_centre, target_axis;
@@ -149,76 +152,179 @@ Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, double r
 // ---------------------------------------------------------------------------------------------
 // Rendering
 
+/// Rendering works on square tiles of pixels; each tile ray-casts only the primitives its frustum
+/// can reach.
+constexpr int kTileSize = 16;
+/// Culling capacity per tile; scenes with more primitives render tiles without culling.
+constexpr int kMaxTilePrimitives = 64;
+/// Largest lateral jitter in pixels: CounterRng::normal_pair never exceeds 12.1 sigma, i.e.
+/// 6.05 px at sigma 0.5 px.
+constexpr double kMaxJitterPx = 6.5;
+/// A primitive is culled only when it lies this far (metres) outside a tile's frustum plane.
+constexpr double kCullMarginM = 1e-6;
+
 /// Per-frame constants of the renderer.
 struct RenderSetup {
   const AnalyticScene* scene;
   Eigen::Matrix3d R_world_camera;
   Eigen::Vector3d t_world_camera;
-  double fx, fy, cx, cy;
-  int width;
+  double fx, inv_fx, inv_fy, cx, cy;
+  int width, height;
+  double cos_dropout_start, cos_dropout_full;
   SynthRenderOptions options;
 };
 
-inline std::uint16_t to_raw(double z_m, double depth_scale) {
-  const double raw = std::floor(z_m * depth_scale + 0.5);
-  return raw >= 1.0 && raw <= 65535.0 ? static_cast<std::uint16_t>(raw) : 0;
+RenderSetup make_setup(const AnalyticScene& scene, const Intrinsics& k, const Pose& T_world_camera,
+                       const SynthRenderOptions& options) {
+  return {&scene,
+          T_world_camera.rotation(),
+          T_world_camera.translation(),
+          k.fx,
+          1.0 / k.fx,
+          1.0 / k.fy,
+          k.cx,
+          k.cy,
+          k.width,
+          k.height,
+          std::cos(kKinectDropoutStartDeg * kDegToRad),
+          std::cos(kKinectDropoutFullDeg * kDegToRad),
+          options};
 }
 
-/// Raw depth of pixel (u, v): a pure function of the set-up and the pixel.
-std::uint16_t render_pixel(const RenderSetup& s, int u, int v) {
-  const bool kinect = s.options.noise == SynthNoise::kKinect;
+/// Nearest integer of a value in [0, 2^62), halves rounded up (no libm call).
+inline std::int64_t round_non_negative(double x) {
+  return static_cast<std::int64_t>(x + 0.5);
+}
+
+/// Raw units of depth z (metres), round to nearest; 0 when it does not fit in 1..65535.
+inline std::uint16_t to_raw(double z_m, double depth_scale) {
+  const double scaled = z_m * depth_scale;
+  if (!(scaled >= 0.5 && scaled < 65535.5)) return 0;
+  return static_cast<std::uint16_t>(round_non_negative(scaled));
+}
+
+/// Casts the ray through pixel coordinates (pu, pv); on a hit within 13 m returns its depth z
+/// along the optical axis (m) and |cos| of the angle between the ray and the surface normal.
+/// `subset` (null: all primitives) must hold every primitive the ray can reach.
+inline bool cast_pixel(const RenderSetup& s, const PrimitiveSubset* subset, double pu, double pv,
+                       double* z, double* cos_incidence) {
+  const Eigen::Vector3d dir_camera((pu - s.cx) * s.inv_fx, (pv - s.cy) * s.inv_fy, 1.0);
+  const double length = dir_camera.norm();  // metres of ray per metre of depth
+  const double inv_length = 1.0 / length;
+  const Ray ray{s.t_world_camera, s.R_world_camera * (dir_camera * inv_length)};
+  Hit hit;
+  const double t_max = kMaxSynthDepthM * length;
+  const bool found = subset != nullptr ? s.scene->intersect(ray, 0.0, t_max, *subset, &hit)
+                                       : s.scene->intersect(ray, 0.0, t_max, &hit);
+  if (!found) return false;
+  *z = hit.t * inv_length;
+  *cos_incidence = std::min(1.0, std::abs(ray.direction.dot(hit.normal)));
+  return *z > 0.0;
+}
+
+/// Raw depth of pixel (u, v): a pure function of the set-up and the pixel (see cast_pixel).
+std::uint16_t render_pixel(const RenderSetup& s, const PrimitiveSubset* subset, int u, int v) {
+  double z, cos_incidence;
+  if (s.options.noise == SynthNoise::kNone) {
+    if (!cast_pixel(s, subset, u, v, &z, &cos_incidence)) return 0;
+    return to_raw(z, s.options.depth_scale);
+  }
+  // Kinect v1. Draw order per pixel: jitter pair, dropout uniform, axial pair.
   CounterRng rng(s.options.seed, s.options.frame_index,
                  static_cast<std::uint64_t>(v) * static_cast<std::uint64_t>(s.width) +
                      static_cast<std::uint64_t>(u));
-  double pu = u;
-  double pv = v;
-  if (kinect) {
-    double n0, n1;
-    rng.normal_pair(&n0, &n1);
-    pu += kKinectLateralSigmaPx * n0;
-    pv += kKinectLateralSigmaPx * n1;
-  }
-  const Eigen::Vector3d dir_camera((pu - s.cx) / s.fx, (pv - s.cy) / s.fy, 1.0);
-  const double length = dir_camera.norm();  // metres of ray per metre of depth
-  const Ray ray{s.t_world_camera, s.R_world_camera * (dir_camera / length)};
-  Hit hit;
-  if (!s.scene->intersect(ray, 0.0, kMaxSynthDepthM * length, &hit)) return 0;
-  const double z = hit.t / length;
-  if (!(z > 0.0)) return 0;
-  if (!kinect) return to_raw(z, s.options.depth_scale);
-
-  const double cos_incidence = std::min(1.0, std::abs(ray.direction.dot(hit.normal)));
-  const double incidence_deg = std::acos(cos_incidence) / kDegToRad;
-  const double dropout_draw = rng.uniform();
-  if (incidence_deg > kKinectDropoutFullDeg) return 0;
-  if (incidence_deg > kKinectDropoutStartDeg &&
-      dropout_draw < (incidence_deg - kKinectDropoutStartDeg) /
-                         (kKinectDropoutFullDeg - kKinectDropoutStartDeg)) {
+  double n0, n1;
+  rng.normal_pair(&n0, &n1);
+  if (!cast_pixel(s, subset, u + kKinectLateralSigmaPx * n0, v + kKinectLateralSigmaPx * n1, &z,
+                  &cos_incidence)) {
     return 0;
+  }
+  // Dropouts: certain beyond 80 deg incidence, ramping linearly in angle from 70 deg.
+  const double dropout_draw = rng.uniform();
+  if (cos_incidence < s.cos_dropout_full) return 0;
+  if (cos_incidence < s.cos_dropout_start) {
+    const double incidence_deg = std::acos(cos_incidence) / kDegToRad;
+    if (dropout_draw < (incidence_deg - kKinectDropoutStartDeg) /
+                           (kKinectDropoutFullDeg - kKinectDropoutStartDeg)) {
+      return 0;
+    }
   }
   double n2, n3;
   rng.normal_pair(&n2, &n3);
   const double z_noisy = z + kinect_axial_sigma_m(z) * n2;
-  if (!(z_noisy > 0.0)) return 0;
-  const double fb = s.fx * kKinectBaselineM;  // disparity (px) times depth (m)
-  const double disparity =
-      std::round(fb / z_noisy / kKinectDisparityStepPx) * kKinectDisparityStepPx;
-  if (!(disparity > 0.0)) return 0;
-  const double z_measured = fb / disparity;
+  // Disparity d = fx b / z in pixels, quantised to 1/8 px.
+  const double fb = s.fx * kKinectBaselineM;
+  const double disparity_steps = fb / (z_noisy * kKinectDisparityStepPx);
+  if (!(disparity_steps >= 0.5 && disparity_steps < 1e15)) return 0;
+  const double z_measured =
+      fb / (static_cast<double>(round_non_negative(disparity_steps)) * kKinectDisparityStepPx);
   if (z_measured < kKinectMinDepthM || z_measured > kKinectMaxDepthM) return 0;
   return to_raw(z_measured, s.options.depth_scale);
 }
 
-RenderSetup make_setup(const AnalyticScene& scene, const Intrinsics& k, const Pose& T_world_camera,
-                       const SynthRenderOptions& options) {
-  return {&scene, T_world_camera.rotation(), T_world_camera.translation(), k.fx, k.fy, k.cx, k.cy,
-          k.width, options};
+/// Primitives that rays through pixel coordinates [u_lo, u_hi] x [v_lo, v_hi] can reach: those not
+/// entirely outside one of the four side planes of that frustum (world frame). Returns false when
+/// the scene has too many primitives to list.
+bool cull_tile(const RenderSetup& s, double u_lo, double u_hi, double v_lo, double v_hi,
+               std::array<int, kMaxTilePrimitives>& boxes,
+               std::array<int, kMaxTilePrimitives>& spheres, PrimitiveSubset* subset) {
+  const auto& scene_boxes = s.scene->boxes();
+  const auto& scene_spheres = s.scene->spheres();
+  if (scene_boxes.size() > boxes.size() || scene_spheres.size() > spheres.size()) return false;
+  auto world_ray = [&](double pu, double pv) {
+    return Eigen::Vector3d(s.R_world_camera *
+                           Eigen::Vector3d((pu - s.cx) * s.inv_fx, (pv - s.cy) * s.inv_fy, 1.0));
+  };
+  const std::array<Eigen::Vector3d, 4> corners = {world_ray(u_lo, v_lo), world_ray(u_hi, v_lo),
+                                                  world_ray(u_hi, v_hi), world_ray(u_lo, v_hi)};
+  const Eigen::Vector3d middle = world_ray(0.5 * (u_lo + u_hi), 0.5 * (v_lo + v_hi));
+  std::array<Eigen::Vector3d, 4> planes;
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Vector3d n = corners[k].cross(corners[(k + 1) % 4]).normalized();
+    planes[k] = n.dot(middle) < 0.0 ? Eigen::Vector3d(-n) : n;  // inward
+  }
+  const Eigen::Vector3d& eye = s.t_world_camera;
+  int box_count = 0;
+  for (int i = 0; i < static_cast<int>(scene_boxes.size()); ++i) {
+    const SceneBox& b = scene_boxes[i];
+    bool outside = false;
+    for (int k = 0; k < 4 && !outside; ++k) {
+      // The box corner farthest along the plane normal decides.
+      Eigen::Vector3d far;
+      for (int a = 0; a < 3; ++a) far[a] = planes[k][a] >= 0.0 ? b.max[a] : b.min[a];
+      outside = planes[k].dot(far - eye) < -kCullMarginM;
+    }
+    if (!outside) boxes[box_count++] = i;
+  }
+  int sphere_count = 0;
+  for (int i = 0; i < static_cast<int>(scene_spheres.size()); ++i) {
+    const SceneSphere& sp = scene_spheres[i];
+    bool outside = false;
+    for (int k = 0; k < 4 && !outside; ++k) {
+      outside = planes[k].dot(sp.centre - eye) < -sp.radius - kCullMarginM;
+    }
+    if (!outside) spheres[sphere_count++] = i;
+  }
+  *subset = {boxes.data(), box_count, spheres.data(), sphere_count};
+  return true;
 }
 
-void render_rows(const RenderSetup& s, int row_begin, int row_end, Image<std::uint16_t>& depth) {
-  for (int v = row_begin; v < row_end; ++v) {
-    std::uint16_t* row = depth.row(v);
-    for (int u = 0; u < s.width; ++u) row[u] = render_pixel(s, u, v);
+/// Renders tile row `tile_row` (kTileSize image rows), tile by tile with frustum culling.
+void render_tile_row(const RenderSetup& s, int tile_row, Image<std::uint16_t>& depth) {
+  const double margin = s.options.noise == SynthNoise::kKinect ? kMaxJitterPx : 0.5;
+  const int v0 = tile_row * kTileSize;
+  const int v1 = std::min(v0 + kTileSize, s.height);
+  std::array<int, kMaxTilePrimitives> boxes;
+  std::array<int, kMaxTilePrimitives> spheres;
+  for (int u0 = 0; u0 < s.width; u0 += kTileSize) {
+    const int u1 = std::min(u0 + kTileSize, s.width);
+    PrimitiveSubset subset;
+    const bool culled = cull_tile(s, u0 - margin, u1 - 1 + margin, v0 - margin, v1 - 1 + margin,
+                                  boxes, spheres, &subset);
+    for (int v = v0; v < v1; ++v) {
+      std::uint16_t* row = depth.row(v);
+      for (int u = u0; u < u1; ++u) row[u] = render_pixel(s, culled ? &subset : nullptr, u, v);
+    }
   }
 }
 
@@ -296,8 +402,8 @@ SynthParams parse_synth_spec(const std::string& spec) {
   }
   const std::size_t query = spec.find('?');
   SynthParams params;
-  params.scene = spec.substr(kPrefix.size(), query == std::string::npos ? std::string::npos
-                                                                        : query - kPrefix.size());
+  params.scene = spec.substr(
+      kPrefix.size(), query == std::string::npos ? std::string::npos : query - kPrefix.size());
   const std::vector<std::string> scenes = AnalyticScene::names();
   if (std::find(scenes.begin(), scenes.end(), params.scene) == scenes.end()) {
     std::string valid;
@@ -329,9 +435,9 @@ SynthParams parse_synth_spec(const std::string& spec) {
     if (key == "frames") {
       params.frames = parse_integer<int>(spec, key, value, 1, 100000000);
     } else if (key == "width") {
-      params.width = parse_integer<int>(spec, key, value, 1, 8192);
+      params.width = parse_integer<int>(spec, key, value, 1, 4096);
     } else if (key == "height") {
-      params.height = parse_integer<int>(spec, key, value, 1, 8192);
+      params.height = parse_integer<int>(spec, key, value, 1, 4096);
     } else if (key == "seed") {
       params.seed = parse_integer<std::uint64_t>(spec, key, value, 0,
                                                  std::numeric_limits<std::uint64_t>::max());
@@ -398,10 +504,12 @@ void render_synth_depth(const AnalyticScene& scene, const Intrinsics& intrinsics
                         Image<std::uint16_t>& depth) {
   depth.resize(intrinsics.width, intrinsics.height);
   const RenderSetup setup = make_setup(scene, intrinsics, T_world_camera, options);
-  tbb::parallel_for(tbb::blocked_range<int>(0, intrinsics.height),
-                    [&](const tbb::blocked_range<int>& rows) {
-                      render_rows(setup, rows.begin(), rows.end(), depth);
-                    });
+  const int tile_rows = (intrinsics.height + kTileSize - 1) / kTileSize;
+  tbb::parallel_for(tbb::blocked_range<int>(0, tile_rows), [&](const tbb::blocked_range<int>& r) {
+    for (int tile_row = r.begin(); tile_row < r.end(); ++tile_row) {
+      render_tile_row(setup, tile_row, depth);
+    }
+  });
 }
 
 void render_synth_depth_reference(const AnalyticScene& scene, const Intrinsics& intrinsics,
@@ -410,7 +518,7 @@ void render_synth_depth_reference(const AnalyticScene& scene, const Intrinsics& 
   depth.resize(intrinsics.width, intrinsics.height);
   const RenderSetup setup = make_setup(scene, intrinsics, T_world_camera, options);
   for (int v = 0; v < intrinsics.height; ++v) {
-    for (int u = 0; u < intrinsics.width; ++u) depth(u, v) = render_pixel(setup, u, v);
+    for (int u = 0; u < intrinsics.width; ++u) depth(u, v) = render_pixel(setup, nullptr, u, v);
   }
 }
 

@@ -20,8 +20,8 @@ Ray make_ray(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
 
 void expect_vector_near(const Eigen::Vector3d& actual, const Eigen::Vector3d& expected,
                         double tolerance) {
-  EXPECT_LT((actual - expected).norm(), tolerance) << "actual " << actual.transpose()
-                                                   << ", expected " << expected.transpose();
+  EXPECT_LT((actual - expected).norm(), tolerance)
+      << "actual " << actual.transpose() << ", expected " << expected.transpose();
 }
 
 TEST(AnalyticScene, BoxHitsEntryAndExitFaces) {
@@ -126,8 +126,8 @@ TEST(AnalyticScene, OccludedAgreesWithIntersectOnRandomRays) {
 TEST(AnalyticScene, DistancesToBoxFaceEdgeCornerAndSphere) {
   AnalyticScene scene("unit");
   scene.add_box({0, 0, 0}, {1, 1, 1});
-  EXPECT_NEAR(scene.distance({0.5, 0.5, 1.3}), 0.3, 1e-12);                      // face
-  EXPECT_NEAR(scene.distance({1.3, 0.5, 1.4}), 0.5, 1e-12);                      // edge 3-4-5
+  EXPECT_NEAR(scene.distance({0.5, 0.5, 1.3}), 0.3, 1e-12);  // face
+  EXPECT_NEAR(scene.distance({1.3, 0.5, 1.4}), 0.5, 1e-12);  // edge 3-4-5
   EXPECT_NEAR(scene.distance({1.3, 1.4, -1.2}), std::sqrt(0.09 + 0.16 + 1.44), 1e-12);  // corner
   EXPECT_NEAR(scene.distance({0.5, 0.5, 0.9}), 0.1, 1e-12);  // inside, nearest face z = 1
   EXPECT_NEAR(scene.signed_distance({0.5, 0.5, 0.9}), -0.1, 1e-12);
@@ -177,7 +177,8 @@ TEST(AnalyticScene, MeshLiesOnTheSurfaceWithOutwardNormals) {
     }
     for (std::size_t i = 0; i < mesh.faces.size(); ++i) {
       const Eigen::Vector3i& f = mesh.faces[i];
-      ASSERT_TRUE((f.array() >= 0).all() && (f.array() < static_cast<int>(mesh.vertices.size())).all());
+      ASSERT_TRUE((f.array() >= 0).all() &&
+                  (f.array() < static_cast<int>(mesh.vertices.size())).all());
       const Eigen::Vector3d a = mesh.vertices[f[0]].cast<double>();
       const Eigen::Vector3d b = mesh.vertices[f[1]].cast<double>();
       const Eigen::Vector3d c = mesh.vertices[f[2]].cast<double>();
@@ -210,9 +211,10 @@ TEST(AnalyticScene, BoxMeshIsExactAndSphereMeshIsFine) {
     // The largest deviation (face centres of the tessellation) stays under 0.2 mm.
     double worst = 0.0;
     for (const auto& f : mesh.faces) {
-      const Eigen::Vector3d c = (mesh.vertices[f[0]].cast<double>() +
-                                 mesh.vertices[f[1]].cast<double>() +
-                                 mesh.vertices[f[2]].cast<double>()) / 3.0;
+      const Eigen::Vector3d c =
+          (mesh.vertices[f[0]].cast<double>() + mesh.vertices[f[1]].cast<double>() +
+           mesh.vertices[f[2]].cast<double>()) /
+          3.0;
       worst = std::max(worst, scene.distance(c));
     }
     EXPECT_LT(worst, 2e-4);
