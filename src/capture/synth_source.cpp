@@ -78,7 +78,8 @@ double parse_fps(const std::string& spec, const std::string& value) {
 // Trajectories
 
 /// A smooth, seed-dependent wobble of roughly unit amplitude (|w| < 1.9): three sinusoids of
-/// 0.2-1.3 Hz whose phases and exact frequencies come from (seed, channel).
+/// 0.16-1.12 Hz times `frequency_scale`, whose phases and exact frequencies come from
+/// (seed, channel).
 double wobble(std::uint64_t seed, int channel, double time_s, double frequency_scale) {
   static constexpr double kAmplitudes[3] = {1.0, 0.6, 0.3};
   static constexpr double kFrequenciesHz[3] = {0.19, 0.43, 0.97};
@@ -103,8 +104,8 @@ struct OrbitRig {
   double radius_swing_m, height_swing_m;
 };
 
-/// Camera and target moving back and forth along parallel lines: x(t) = centre - axis cos(2 pi t /
-/// T).
+/// Camera and target moving back and forth along parallel lines, both at
+/// centre - axis * cos(2 pi t / period).
 struct SweepRig {
   Eigen::Vector3d camera_centre, camera_axis;
   Eigen::Vector3d target_centre, target_axis;
