@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/status.h"
+#include "io/tokens.h"
 
 namespace aoscan {
 namespace {
@@ -95,18 +96,6 @@ struct Element {
   std::uint64_t count = 0;
   std::vector<Property> properties;
 };
-
-std::vector<std::string_view> split(std::string_view line) {
-  std::vector<std::string_view> tokens;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    const std::size_t start = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
-    if (i > start) tokens.push_back(line.substr(start, i - start));
-  }
-  return tokens;
-}
 
 /// Sequential reader of the data section, binary little-endian or ASCII.
 class DataReader {
@@ -289,7 +278,7 @@ TriangleMesh read_ply(const std::string& path) {
   bool ascii = false, have_format = false, ended = false;
   std::vector<Element> elements;
   while (next_line(line)) {
-    const auto tokens = split(line);
+    const auto tokens = split_tokens(line);
     if (tokens.empty() || tokens[0] == "comment" || tokens[0] == "obj_info") continue;
     const std::string bad =
         path + ": bad PLY header line '" + std::string(line.substr(0, 60)) + "'";

@@ -14,22 +14,10 @@
 #include <string_view>
 
 #include "core/status.h"
+#include "io/tokens.h"
 
 namespace aoscan {
 namespace {
-
-/// Whitespace-separated tokens of one line (spaces, tabs, a trailing '\r').
-std::vector<std::string_view> split(std::string_view line) {
-  std::vector<std::string_view> tokens;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    const std::size_t start = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
-    if (i > start) tokens.push_back(line.substr(start, i - start));
-  }
-  return tokens;
-}
 
 bool parse_finite(std::string_view token, double& out) {
   const char* first = token.data();
@@ -96,7 +84,7 @@ int put_fixed(char* out, std::size_t size, const char* format, double v) {
 std::vector<TumListEntry> read_tum_list(const std::string& path) {
   std::vector<TumListEntry> entries;
   for_each_data_line(path, [&](std::string_view line, int number) {
-    const auto tokens = split(line);
+    const auto tokens = split_tokens(line);
     TumListEntry entry;
     if (tokens.size() < 2 || !parse_finite(tokens[0], entry.timestamp_s))
       throw input_error(path + ":" + std::to_string(number) + ": expected 'timestamp path', got '" +
@@ -122,7 +110,7 @@ void write_tum_list(const std::string& path, const std::vector<TumListEntry>& en
 std::vector<StampedPose> read_trajectory(const std::string& path) {
   std::vector<StampedPose> poses;
   for_each_data_line(path, [&](std::string_view line, int number) {
-    const auto tokens = split(line);
+    const auto tokens = split_tokens(line);
     const std::string where = path + ":" + std::to_string(number) + ": ";
     if (tokens.size() != 8)
       throw input_error(where + "expected 'timestamp tx ty tz qx qy qz qw', got '" + shown(line) +
