@@ -58,11 +58,69 @@ struct PreprocessConfig {
 struct FusionConfig {
   double voxel_size_m = 4.0 / 512.0;  ///< TSDF voxel edge (m)
   double truncation_m = 4.5 * 4.0 / 512.0;  ///< TSDF truncation band (m)
+  double max_weight = 100.0;      ///< cap of the per-voxel running-average weight (observations)
+  int max_blocks = 131072;        ///< capacity of the sparse volume in 8^3 blocks (4 KiB each)
+  double raycast_min_depth_m = 0.2;  ///< raycast: nearest depth searched along a ray (m)
+  double raycast_max_depth_m = 5.0;  ///< raycast: farthest depth searched along a ray (m)
+  double mesh_min_weight = 1.0;   ///< mesh: cubes with a corner of lower weight are not meshed
 
   template <class V>
   void visit(V& v) {
     v.number("voxel_size_m", voxel_size_m, "TSDF voxel edge (m)", 1e-4, 1.0);
     v.number("truncation_m", truncation_m, "TSDF truncation distance (m)", 1e-4, 10.0);
+    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations)", 1.0,
+             1e6);
+    v.integer("max_blocks", max_blocks,
+              "TSDF capacity in 8^3 voxel blocks of 4 KiB; reaching it is reported", 1, 1 << 24);
+    v.number("raycast_min_depth_m", raycast_min_depth_m, "raycast: nearest depth searched (m)",
+             0.0, 100.0);
+    v.number("raycast_max_depth_m", raycast_max_depth_m, "raycast: farthest depth searched (m)",
+             0.01, 100.0);
+    v.number("mesh_min_weight", mesh_min_weight,
+             "mesh: cubes with a corner voxel of lower TSDF weight are dropped", 0.0, 1e6);
+  }
+};
+
+/// Frame-to-model projective point-to-plane ICP and the per-frame tracking status.
+struct TrackingConfig {
+  int iterations_level0 = 4;           ///< Gauss-Newton iterations at full resolution
+  int iterations_level1 = 5;           ///< ... at half resolution
+  int iterations_level2 = 10;          ///< ... at quarter resolution (done first)
+  double max_distance_m = 0.1;         ///< correspondences farther apart are rejected (m)
+  double max_normal_angle_deg = 30.0;  ///< correspondences whose normals differ more are rejected
+  double huber_delta_m = 0.01;         ///< Huber robust weight: residuals above are down-weighted
+  double lost_inlier_ratio = 0.1;      ///< inliers / valid frame pixels below this: lost
+  double poor_inlier_ratio = 0.3;      ///< inliers / valid frame pixels below this: poor
+  double poor_rms_residual_m = 0.01;   ///< point-to-plane RMS residual above this: poor
+  double max_translation_m = 0.15;     ///< motion from the initial pose above this: lost (m)
+  double max_rotation_deg = 20.0;      ///< rotation from the initial pose above this: lost (deg)
+
+  template <class V>
+  void visit(V& v) {
+    v.integer("iterations_level0", iterations_level0, "ICP iterations at full resolution", 0,
+              100);
+    v.integer("iterations_level1", iterations_level1, "ICP iterations at half resolution", 0,
+              100);
+    v.integer("iterations_level2", iterations_level2, "ICP iterations at quarter resolution", 0,
+              100);
+    v.number("max_distance_m", max_distance_m, "ICP correspondence distance rejection (m)", 1e-4,
+             10.0);
+    v.number("max_normal_angle_deg", max_normal_angle_deg,
+             "ICP correspondence normal-angle rejection (degrees)", 0.0, 180.0);
+    v.number("huber_delta_m", huber_delta_m, "ICP Huber threshold of the residual (m)", 1e-5,
+             1.0);
+    v.number("lost_inlier_ratio", lost_inlier_ratio,
+             "tracking lost below this fraction of valid pixels matched", 0.0, 1.0);
+    v.number("poor_inlier_ratio", poor_inlier_ratio,
+             "tracking poor below this fraction of valid pixels matched", 0.0, 1.0);
+    v.number("poor_rms_residual_m", poor_rms_residual_m,
+             "tracking poor above this point-to-plane RMS residual (m)", 0.0, 1.0);
+    v.number("max_translation_m", max_translation_m,
+             "tracking lost when a frame moves farther than this from its initial pose (m)", 0.0,
+             100.0);
+    v.number("max_rotation_deg", max_rotation_deg,
+             "tracking lost when a frame turns more than this from its initial pose (deg)", 0.0,
+             180.0);
   }
 };
 
@@ -115,6 +173,7 @@ struct PipelineConfig {
 struct Config {
   PreprocessConfig preprocess;
   FusionConfig fusion;
+  TrackingConfig tracking;
   AoConfig ao;
   PipelineConfig pipeline;
 
@@ -122,6 +181,7 @@ struct Config {
   void visit_sections(V& v) {
     v.section("preprocess", preprocess);
     v.section("fusion", fusion);
+    v.section("tracking", tracking);
     v.section("ao", ao);
     v.section("pipeline", pipeline);
   }

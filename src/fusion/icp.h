@@ -1,0 +1,86 @@
+/// @file icp.h
+/// @brief Frame-to-model tracking: coarse-to-fine projective point-to-plane ICP against the model
+/// raycast, with distance / normal-angle rejection, Huber weights and a per-frame status.
+#pragma once
+
+#include <array>
+
+#include <Eigen/Core>
+
+#include "core/config.h"
+#include "core/pose.h"
+#include "fusion/point_maps.h"
+#include "fusion/raycast.h"
+
+namespace aoscan {
+
+/// Outcome of tracking one frame.
+enum class TrackingStatus {
+  kGood,  ///< enough inliers, small residual, plausible motion
+  kPoor,  ///< tracked, but few inliers, a large residual or a degenerate (under-constrained) scene
+  kLost,  ///< not tracked: the pose is the initial guess and the frame should not be fused
+};
+
+/// "good", "poor" or "lost".
+const char* to_string(TrackingStatus status);
+
+/// What icp() found.
+struct IcpResult {
+  Pose T_world_camera;  ///< estimated pose; the initial pose when lost
+  TrackingStatus status = TrackingStatus::kLost;
+  int inliers = 0;              ///< correspondences kept at full resolution (last iteration)
+  int valid_pixels = 0;         ///< frame pixels with a vertex and a normal at full resolution
+  double inlier_ratio = 0.0;    ///< inliers / valid_pixels
+  double rms_residual_m = 0.0;  ///< point-to-plane RMS of the inliers (m)
+  int iterations = 0;           ///< Gauss-Newton steps over all levels
+  bool degenerate = false;      ///< the last system had an unconstrained direction
+  double translation_m = 0.0;   ///< |motion| from the initial pose (m)
+  double rotation_deg = 0.0;    ///< rotation angle from the initial pose (degrees)
+};
+
+/// Gauss-Newton normal equations of one ICP iteration for the increment xi = (omega, tau) applied
+/// on the left in the model camera frame: T_model_camera <- exp(xi) * T_model_camera.
+struct IcpSystem {
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();  ///< sum w J J^T
+  Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();  ///< sum w J r
+  double residual_sq = 0.0;  ///< sum of r^2 over the inliers (unweighted, m^2)
+  int inliers = 0;
+  int valid = 0;  ///< frame pixels with a vertex and a normal
+};
+
+/// Builds the ICP system at one pyramid level: each valid frame vertex (camera frame of the frame)
+/// is moved by T_model_camera into the camera frame of the model raycast, projected into `model`
+/// (camera frame of the model; nearest pixel) and paired with that model vertex / normal unless
+/// they are farther apart than max_distance_m or their normals differ by more than
+/// max_normal_angle_deg. Residual r = n_model . (p - q), Huber-weighted. Multi-threaded over fixed
+/// groups of rows summed in a fixed order: the result does not depend on the thread count.
+IcpSystem icp_system(const PointMaps& frame, const PointMaps& model, const Pose& T_model_camera,
+                     const TrackingConfig& config);
+/// Plain single-threaded reference of icp_system(): one running sum over all pixels (equal up to
+/// floating-point summation order).
+IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
+                               const Pose& T_model_camera, const TrackingConfig& config);
+
+/// Reusable buffers of icp(): the model maps at every pyramid level (level 0 is not used).
+struct IcpWorkspace {
+  std::array<PointMaps, kPyramidLevels> model;
+};
+
+/// Model maps at half resolution: pixel (x, y) takes the vertex and normal of pixel (2x, 2y);
+/// intrinsics are `in.intrinsics.scaled(1)`. `out`'s buffers are reused.
+void downsample_model(const PointMaps& in, PointMaps& out);
+
+/// Tracks `frame` (its pyramid; camera frame of the frame) against `model` (a raycast of the
+/// fused model at model.T_world_camera), starting from T_world_camera_init (usually the previous
+/// pose), coarse to fine with the configured iterations per level. The result's status is lost
+/// when too few pixels match, the estimate is not finite, or it moved more than
+/// max_translation_m / max_rotation_deg from the initial pose; poor when the inlier ratio or the
+/// residual is bad or the system is degenerate. Never returns a non-finite pose.
+IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
+              const Pose& T_world_camera_init, const TrackingConfig& config,
+              IcpWorkspace& workspace);
+/// icp() with a temporary workspace.
+IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
+              const Pose& T_world_camera_init, const TrackingConfig& config);
+
+}  // namespace aoscan

@@ -1,0 +1,338 @@
+/// @file raycast.cpp
+/// @brief TSDF raycasting: per-tile depth bounds from the allocated blocks, block skipping,
+/// adaptive steps, secant-refined zero crossings, gradient normals.
+#include "fusion/raycast.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/status.h"
+
+namespace aoscan {
+namespace {
+
+/// Pixels per tile edge of the depth-bounds image.
+constexpr int kTile = 8;
+/// Block groups of the depth-bounds pass; fixed so the split never depends on threads.
+constexpr int kBoundsGroups = 16;
+/// Limit of the refinement iterations after a zero crossing is bracketed ...
+constexpr int kRefineIterations = 8;
+/// ... which stop when the bracket is this short (depth along the optical axis, m).
+constexpr float kRefineTolerance = 1e-5f;
+
+/// A camera ray in voxel units: g(s) = origin + s * dir, where s is the depth along the optical
+/// axis (m).
+struct Ray {
+  Eigen::Vector3f origin;
+  Eigen::Vector3f dir;
+  Eigen::Vector3f ray_camera;  ///< (x/z, y/z, 1) of the pixel
+  float metres_per_s;          ///< |ray_camera|: metres travelled per unit of s
+};
+
+/// Finds the zero crossing between s0 (tsdf f0 > 0) and s1 (tsdf f1 < 0) on trilinear samples by
+/// the Illinois variant of regula falsi (converges where the field is not linear, e.g. at grazing
+/// angles).
+float refine_crossing(TsdfSampler& sampler, const Ray& ray, float s0, float f0, float s1,
+                      float f1) {
+  int side = 0;
+  for (int i = 0; i < kRefineIterations; ++i) {
+    const float s = s0 + (s1 - s0) * f0 / (f0 - f1);
+    float f = 0;
+    if (!sampler.trilinear(ray.origin + s * ray.dir, f)) break;
+    if (f > 0) {
+      s0 = s;
+      f0 = f;
+      if (side == 1) f1 *= 0.5f;
+      side = 1;
+    } else {
+      s1 = s;
+      f1 = f;
+      if (side == -1) f0 *= 0.5f;
+      side = -1;
+    }
+    if (s1 - s0 < kRefineTolerance) break;
+  }
+  return s0 + (s1 - s0) * f0 / (f0 - f1);
+}
+
+void clear_pixel(RaycastResult& r, int x, int y) {
+  r.depth_m(x, y) = 0.0f;
+  r.maps.vertices(x, y).setZero();
+  r.maps.normals(x, y).setZero();
+}
+
+/// Writes depth, vertex and normal of a hit at depth s; clears the pixel when the normal is not
+/// available.
+void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matrix3f& R_camera_world,
+               RaycastResult& r, int x, int y) {
+  Eigen::Vector3f grad;
+  if (!sampler.gradient(ray.origin + s * ray.dir, grad) || !(grad.squaredNorm() > 1e-12f)) {
+    clear_pixel(r, x, y);
+    return;
+  }
+  const Eigen::Vector3f vertex = ray.ray_camera * s;
+  Eigen::Vector3f normal = (R_camera_world * grad).normalized();
+  if (normal.dot(vertex) > 0.0f) normal = -normal;
+  r.depth_m(x, y) = s;
+  r.maps.vertices(x, y) = vertex;
+  r.maps.normals(x, y) = normal;
+}
+
+/// Everything per frame that both raycasts need.
+struct RaySetup {
+  Eigen::Matrix3f R_world_camera;
+  Eigen::Matrix3f R_camera_world;
+  Eigen::Vector3f origin_voxels;
+  float inv_voxel;
+  float fx_inv, fy_inv, cx, cy;
+
+  RaySetup(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera) {
+    R_world_camera = T_world_camera.rotation().cast<float>();
+    R_camera_world = R_world_camera.transpose();
+    inv_voxel = 1.0f / volume.voxel_size_m();
+    origin_voxels = T_world_camera.translation().cast<float>() * inv_voxel;
+    fx_inv = static_cast<float>(1.0 / k.fx);
+    fy_inv = static_cast<float>(1.0 / k.fy);
+    cx = static_cast<float>(k.cx);
+    cy = static_cast<float>(k.cy);
+  }
+  Ray ray(int x, int y) const {
+    Ray r;
+    r.ray_camera = Eigen::Vector3f((static_cast<float>(x) - cx) * fx_inv,
+                                   (static_cast<float>(y) - cy) * fy_inv, 1.0f);
+    r.origin = origin_voxels;
+    r.dir = R_world_camera * r.ray_camera * inv_voxel;
+    r.metres_per_s = r.ray_camera.norm();
+    return r;
+  }
+};
+
+void prepare(const Intrinsics& intrinsics, const Pose& T_world_camera, RaycastResult& result) {
+  result.T_world_camera = T_world_camera;
+  result.maps.intrinsics = intrinsics;
+  result.depth_m.resize(intrinsics.width, intrinsics.height, 0.0f);
+  result.maps.vertices.resize(intrinsics.width, intrinsics.height, Eigen::Vector3f::Zero());
+  result.maps.normals.resize(intrinsics.width, intrinsics.height, Eigen::Vector3f::Zero());
+  result.hits = 0;
+}
+
+int count_hits(const Image<float>& depth) {
+  int hits = 0;
+  for (std::size_t i = 0; i < depth.size(); ++i) hits += depth.data()[i] > 0.0f ? 1 : 0;
+  return hits;
+}
+
+void check_inputs(const Intrinsics& intrinsics, const FusionConfig& config) {
+  if (!intrinsics.valid()) throw usage_error("raycast: invalid intrinsics");
+  if (!(config.raycast_min_depth_m < config.raycast_max_depth_m))
+    throw usage_error("fusion.raycast_min_depth_m must be below fusion.raycast_max_depth_m");
+}
+
+/// Per-tile [min, max] depth of the allocated blocks' boxes (voxel-centre box [8b, 8b + 8] per
+/// axis: every position whose trilinear sample reads that block's lowest voxel). Tiles without a
+/// block get min = +inf.
+void depth_bounds(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera,
+                  float min_depth, int tiles_x, int tiles_y, std::vector<float>& zmin,
+                  std::vector<float>& zmax) {
+  const Pose T_camera_world = T_world_camera.inverse();
+  const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
+  const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
+  const float vs = volume.voxel_size_m();
+  const float fx = static_cast<float>(k.fx), fy = static_cast<float>(k.fy);
+  const float cx = static_cast<float>(k.cx), cy = static_cast<float>(k.cy);
+  const std::size_t tiles = static_cast<std::size_t>(tiles_x) * tiles_y;
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<std::vector<float>> group_min(kBoundsGroups), group_max(kBoundsGroups);
+  const int blocks = volume.block_count();
+
+  tbb::parallel_for(0, kBoundsGroups, [&](int group) {
+    std::vector<float>& gmin = group_min[group];
+    std::vector<float>& gmax = group_max[group];
+    gmin.assign(tiles, inf);
+    gmax.assign(tiles, -inf);
+    const int begin = static_cast<int>(static_cast<long long>(blocks) * group / kBoundsGroups);
+    const int end = static_cast<int>(static_cast<long long>(blocks) * (group + 1) / kBoundsGroups);
+    for (int i = begin; i < end; ++i) {
+      const Eigen::Vector3f lo = (volume.block_coord(i) * kBlockSize).cast<float>() * vs;
+      const float edge = kBlockSize * vs;
+      float z_lo = inf, z_hi = -inf, u_lo = inf, u_hi = -inf, v_lo = inf, v_hi = -inf;
+      bool straddles = false;
+      for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3f corner =
+            lo + edge * Eigen::Vector3f(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        const Eigen::Vector3f p = R * corner + t;
+        z_lo = std::min(z_lo, p.z());
+        z_hi = std::max(z_hi, p.z());
+        if (p.z() < min_depth) {
+          straddles = true;
+          continue;
+        }
+        const float u = fx * p.x() / p.z() + cx;
+        const float v = fy * p.y() / p.z() + cy;
+        u_lo = std::min(u_lo, u);
+        u_hi = std::max(u_hi, u);
+        v_lo = std::min(v_lo, v);
+        v_hi = std::max(v_hi, v);
+      }
+      if (z_hi < min_depth) continue;
+      int x0 = 0, x1 = k.width - 1, y0 = 0, y1 = k.height - 1;
+      if (!straddles) {
+        if (u_hi < 0.0f || v_hi < 0.0f || u_lo > static_cast<float>(k.width - 1) ||
+            v_lo > static_cast<float>(k.height - 1))
+          continue;
+        x0 = std::max(0, static_cast<int>(std::ceil(u_lo)));
+        x1 = std::min(k.width - 1, static_cast<int>(std::floor(u_hi)));
+        y0 = std::max(0, static_cast<int>(std::ceil(v_lo)));
+        y1 = std::min(k.height - 1, static_cast<int>(std::floor(v_hi)));
+        if (x0 > x1 || y0 > y1) continue;
+      }
+      z_lo = std::max(z_lo, min_depth);
+      for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty) {
+        for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
+          const std::size_t ti = static_cast<std::size_t>(ty) * tiles_x + tx;
+          gmin[ti] = std::min(gmin[ti], z_lo);
+          gmax[ti] = std::max(gmax[ti], z_hi);
+        }
+      }
+    }
+  });
+  zmin.assign(tiles, inf);
+  zmax.assign(tiles, -inf);
+  for (int group = 0; group < kBoundsGroups; ++group) {
+    for (std::size_t ti = 0; ti < tiles; ++ti) {
+      zmin[ti] = std::min(zmin[ti], group_min[group][ti]);
+      zmax[ti] = std::max(zmax[ti], group_max[group][ti]);
+    }
+  }
+}
+
+/// True when every ray position stays far inside the int range of voxel coordinates.
+bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera,
+                 const FusionConfig& config) {
+  const double rx = std::max(std::abs(k.cx), std::abs(k.width - k.cx)) / k.fx;
+  const double ry = std::max(std::abs(k.cy), std::abs(k.height - k.cy)) / k.fy;
+  const double reach = T_world_camera.translation().cwiseAbs().maxCoeff() +
+                       std::sqrt(1.0 + rx * rx + ry * ry) * config.raycast_max_depth_m;
+  return reach / volume.voxel_size_m() < static_cast<double>(1 << 23);
+}
+
+}  // namespace
+
+void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
+             const FusionConfig& config, RaycastResult& result) {
+  check_inputs(intrinsics, config);
+  prepare(intrinsics, T_world_camera, result);
+  if (!T_world_camera.finite() || volume.block_count() == 0 ||
+      !within_grid(volume, intrinsics, T_world_camera, config))
+    return;
+
+  const float min_depth = static_cast<float>(config.raycast_min_depth_m);
+  const float max_depth = static_cast<float>(config.raycast_max_depth_m);
+  const int tiles_x = (intrinsics.width + kTile - 1) / kTile;
+  const int tiles_y = (intrinsics.height + kTile - 1) / kTile;
+  std::vector<float> zmin, zmax;
+  depth_bounds(volume, intrinsics, T_world_camera, min_depth, tiles_x, tiles_y, zmin, zmax);
+
+  const RaySetup setup(volume, intrinsics, T_world_camera);
+  const float vs = volume.voxel_size_m();
+  const float trunc = volume.truncation_m();
+
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, intrinsics.height, 4), [&](const tbb::blocked_range<int>& rows) {
+        TsdfSampler sampler(volume);
+        for (int y = rows.begin(); y != rows.end(); ++y) {
+          for (int x = 0; x < intrinsics.width; ++x) {
+            const std::size_t ti = static_cast<std::size_t>(y / kTile) * tiles_x + x / kTile;
+            const float s_end = std::min(zmax[ti], max_depth);
+            float s = std::max(zmin[ti], min_depth);
+            if (!(s < s_end)) continue;
+            const Ray ray = setup.ray(x, y);
+            const float s_per_metre = 1.0f / ray.metres_per_s;
+            const float min_step = vs * s_per_metre;
+            float prev_s = 0.0f, prev_f = 0.0f;
+            bool prev_valid = false;
+            while (s < s_end) {
+              const Eigen::Vector3f g = ray.origin + s * ray.dir;
+              const int gx = static_cast<int>(std::floor(g.x()));
+              const int gy = static_cast<int>(std::floor(g.y()));
+              const int gz = static_cast<int>(std::floor(g.z()));
+              if (sampler.voxel(gx, gy, gz) == nullptr) {
+                // Jump to where the ray leaves the region [8b, 8b + 8) of this unallocated block.
+                float s_exit = std::numeric_limits<float>::infinity();
+                const int b[3] = {gx >> 3, gy >> 3, gz >> 3};
+                for (int a = 0; a < 3; ++a) {
+                  if (ray.dir[a] == 0.0f) continue;
+                  const float boundary =
+                      static_cast<float>(kBlockSize * (ray.dir[a] > 0.0f ? b[a] + 1 : b[a]));
+                  s_exit = std::min(s_exit, (boundary - ray.origin[a]) / ray.dir[a]);
+                }
+                s = std::max(s_exit, s) + 0.01f * min_step;
+                prev_valid = false;
+                continue;
+              }
+              float f = 0.0f;
+              if (!sampler.trilinear(g, f)) {
+                prev_valid = false;
+                s += min_step;
+                continue;
+              }
+              if (prev_valid && prev_f > 0.0f && f < 0.0f) {
+                write_hit(sampler, ray, refine_crossing(sampler, ray, prev_s, prev_f, s, f),
+                          setup.R_camera_world, result, x, y);
+                break;
+              }
+              prev_s = s;
+              prev_f = f;
+              prev_valid = true;
+              s += f > 0.0f ? std::max(min_step, 0.8f * f * trunc * s_per_metre) : min_step;
+            }
+          }
+        }
+      });
+  result.hits = count_hits(result.depth_m);
+}
+
+void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
+                       const Pose& T_world_camera, const FusionConfig& config, float step_voxels,
+                       RaycastResult& result) {
+  check_inputs(intrinsics, config);
+  prepare(intrinsics, T_world_camera, result);
+  if (!T_world_camera.finite() || !(step_voxels > 0.0f) ||
+      !within_grid(volume, intrinsics, T_world_camera, config))
+    return;
+  const RaySetup setup(volume, intrinsics, T_world_camera);
+  const float min_depth = static_cast<float>(config.raycast_min_depth_m);
+  const float max_depth = static_cast<float>(config.raycast_max_depth_m);
+  TsdfSampler sampler(volume);
+  for (int y = 0; y < intrinsics.height; ++y) {
+    for (int x = 0; x < intrinsics.width; ++x) {
+      const Ray ray = setup.ray(x, y);
+      const float step = step_voxels * volume.voxel_size_m() / ray.metres_per_s;
+      float prev_s = 0.0f, prev_f = 0.0f;
+      bool prev_valid = false;
+      for (float s = min_depth; s < max_depth; s += step) {
+        float f = 0.0f;
+        if (!sampler.trilinear(ray.origin + s * ray.dir, f)) {
+          prev_valid = false;
+          continue;
+        }
+        if (prev_valid && prev_f > 0.0f && f < 0.0f) {
+          write_hit(sampler, ray, refine_crossing(sampler, ray, prev_s, prev_f, s, f),
+                    setup.R_camera_world, result, x, y);
+          break;
+        }
+        prev_s = s;
+        prev_f = f;
+        prev_valid = true;
+      }
+    }
+  }
+  result.hits = count_hits(result.depth_m);
+}
+
+}  // namespace aoscan

@@ -1,0 +1,38 @@
+/// @file raycast.h
+/// @brief Raycasting the sparse TSDF into depth, vertex and normal maps at a camera pose: the ICP
+/// reference of the next frame and the input of the SSAO stage.
+#pragma once
+
+#include "core/config.h"
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/pose.h"
+#include "fusion/point_maps.h"
+#include "fusion/tsdf_volume.h"
+
+namespace aoscan {
+
+/// The model seen from one pose. Published by the pipeline as an immutable product.
+struct RaycastResult {
+  Pose T_world_camera;   ///< pose the model was raycast from
+  Image<float> depth_m;  ///< depth along the optical axis (m), 0 = no surface
+  PointMaps maps;        ///< camera-frame vertices (m) and unit normals facing the camera
+  int hits = 0;          ///< pixels with a surface
+};
+
+/// Raycasts `volume` from T_world_camera through every pixel of `intrinsics`, between
+/// fusion.raycast_min_depth_m and raycast_max_depth_m (depth along the optical axis). Each ray
+/// starts at the nearest allocated block seen through its 8x8-pixel tile, jumps over unallocated
+/// blocks, steps by the TSDF value inside blocks, and takes the first + to - zero crossing,
+/// refined by interpolating trilinear samples. Normals come from the TSDF gradient. `result`'s
+/// buffers are reused. Multi-threaded over rows; the result does not depend on the thread count.
+void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
+             const FusionConfig& config, RaycastResult& result);
+
+/// Plain reference of raycast(): single-threaded, a fixed step of `step_voxels` voxels through
+/// the whole depth range, trilinear samples only, no block skipping. Slow; for tests.
+void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
+                       const Pose& T_world_camera, const FusionConfig& config, float step_voxels,
+                       RaycastResult& result);
+
+}  // namespace aoscan

@@ -1,0 +1,345 @@
+/// @file tsdf_volume.cpp
+/// @brief Sparse TSDF: block hash, band allocation along the depth rays, projective voxel update.
+#include "fusion/tsdf_volume.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/status.h"
+
+namespace aoscan {
+namespace {
+
+/// Image rows handled by one allocation task; fixed so the work split never depends on threads.
+constexpr int kRowsPerChunk = 8;
+/// Slots of the per-chunk direct-mapped cache that drops repeated block keys of nearby rays.
+constexpr int kKeyCacheBits = 9;
+
+Eigen::Vector3i unpack(std::uint64_t key) {
+  constexpr std::uint64_t kMask = (1u << 21) - 1;
+  return {static_cast<int>(key & kMask) - (1 << 20),
+          static_cast<int>((key >> 21) & kMask) - (1 << 20),
+          static_cast<int>((key >> 42) & kMask) - (1 << 20)};
+}
+
+/// Floor division by kBlockSize for negative coordinates too.
+int block_of(int v) {
+  return v >= 0 ? v / kBlockSize : -((-v + kBlockSize - 1) / kBlockSize);
+}
+
+bool in_key_range(const Eigen::Vector3i& b) {
+  return b.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord;
+}
+
+/// Block keys of the block-grid cells crossed by the segment a-b (block-grid units, where cell
+/// floor(q) is block q): Amanatides-Woo traversal, appended to `out` unless cached.
+void traverse_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b, std::uint64_t* cache,
+                      std::vector<std::uint64_t>& out) {
+  const Eigen::Vector3f dir = b - a;
+  Eigen::Vector3i cur(static_cast<int>(std::floor(a.x())), static_cast<int>(std::floor(a.y())),
+                      static_cast<int>(std::floor(a.z())));
+  const Eigen::Vector3i end(static_cast<int>(std::floor(b.x())),
+                            static_cast<int>(std::floor(b.y())),
+                            static_cast<int>(std::floor(b.z())));
+  Eigen::Vector3i step;
+  Eigen::Vector3f t_max, t_delta;
+  for (int i = 0; i < 3; ++i) {
+    step[i] = dir[i] > 0 ? 1 : (dir[i] < 0 ? -1 : 0);
+    if (step[i] == 0) {
+      t_max[i] = std::numeric_limits<float>::infinity();
+      t_delta[i] = std::numeric_limits<float>::infinity();
+    } else {
+      const float boundary = static_cast<float>(cur[i] + (step[i] > 0 ? 1 : 0));
+      t_max[i] = (boundary - a[i]) / dir[i];
+      t_delta[i] = std::abs(1.0f / dir[i]);
+    }
+  }
+  const int steps = (end - cur).cwiseAbs().sum();
+  for (int n = 0;; ++n) {
+    if (in_key_range(cur)) {
+      const std::uint64_t key = TsdfVolume::pack(cur);
+      const std::size_t slot = (key * 0x9E3779B97F4A7C15ULL) >> (64 - kKeyCacheBits);
+      if (cache[slot] != key) {
+        cache[slot] = key;
+        out.push_back(key);
+      }
+    }
+    if (n >= steps) break;
+    int axis = 0;
+    if (t_max[1] < t_max[axis]) axis = 1;
+    if (t_max[2] < t_max[axis]) axis = 2;
+    cur[axis] += step[axis];
+    t_max[axis] += t_delta[axis];
+  }
+}
+
+bool valid_depth(float d) {
+  return d > 0.0f && d < 1e4f;
+}
+
+}  // namespace
+
+void BlockHashMap::insert(std::uint64_t key, int value) {
+  if (keys_.empty() || 2 * (size_ + 1) > keys_.size()) grow();
+  std::size_t slot = hash(key) & mask_;
+  while (keys_[slot] != kEmpty) slot = (slot + 1) & mask_;
+  keys_[slot] = key;
+  values_[slot] = value;
+  ++size_;
+}
+
+void BlockHashMap::clear() {
+  keys_.clear();
+  keys_.shrink_to_fit();
+  values_.clear();
+  values_.shrink_to_fit();
+  mask_ = 0;
+  size_ = 0;
+}
+
+void BlockHashMap::grow() {
+  const std::size_t capacity = keys_.empty() ? 4096 : 2 * keys_.size();
+  std::vector<std::uint64_t> old_keys(capacity, kEmpty);
+  std::vector<int> old_values(capacity, -1);
+  old_keys.swap(keys_);
+  old_values.swap(values_);
+  mask_ = capacity - 1;
+  for (std::size_t i = 0; i < old_keys.size(); ++i) {
+    if (old_keys[i] == kEmpty) continue;
+    std::size_t slot = hash(old_keys[i]) & mask_;
+    while (keys_[slot] != kEmpty) slot = (slot + 1) & mask_;
+    keys_[slot] = old_keys[i];
+    values_[slot] = old_values[i];
+  }
+}
+
+TsdfVolume::TsdfVolume(const FusionConfig& config)
+    : voxel_size_(static_cast<float>(config.voxel_size_m)),
+      truncation_(static_cast<float>(config.truncation_m)),
+      max_weight_(static_cast<float>(config.max_weight)),
+      max_blocks_(config.max_blocks) {
+  if (!(config.voxel_size_m > 0.0) || !std::isfinite(config.voxel_size_m))
+    throw usage_error("fusion.voxel_size_m must be positive, got " +
+                      std::to_string(config.voxel_size_m));
+  if (!(config.truncation_m >= config.voxel_size_m) || !std::isfinite(config.truncation_m))
+    throw usage_error("fusion.truncation_m must be at least fusion.voxel_size_m");
+  if (!(config.max_weight >= 1.0)) throw usage_error("fusion.max_weight must be at least 1");
+  if (config.max_blocks < 1) throw usage_error("fusion.max_blocks must be positive");
+}
+
+void TsdfVolume::reset() {
+  map_.clear();
+  chunks_.clear();
+  coords_.clear();
+  coords_.shrink_to_fit();
+  last_frame_.clear();
+  last_frame_.shrink_to_fit();
+  visible_.clear();
+  capacity_reached_ = false;
+  frame_counter_ = 0;
+}
+
+int TsdfVolume::allocate_block(const Eigen::Vector3i& coord) {
+  if (!in_key_range(coord)) return -1;
+  const std::uint64_t key = pack(coord);
+  const int found = map_.find(key);
+  if (found >= 0) return found;
+  if (block_count() >= max_blocks_) {
+    capacity_reached_ = true;
+    return -1;
+  }
+  const int index = block_count();
+  if ((index >> kChunkBits) >= static_cast<int>(chunks_.size()))
+    chunks_.push_back(std::make_unique<VoxelBlock[]>(std::size_t{1} << kChunkBits));
+  else
+    block(index) = VoxelBlock{};
+  coords_.push_back(coord);
+  last_frame_.push_back(0);
+  map_.insert(key, index);
+  return index;
+}
+
+const Voxel* TsdfVolume::find_voxel(const Eigen::Vector3i& voxel) const {
+  const Eigen::Vector3i b(block_of(voxel.x()), block_of(voxel.y()), block_of(voxel.z()));
+  if (!in_key_range(b)) return nullptr;
+  const int index = find_block(b);
+  if (index < 0) return nullptr;
+  const Eigen::Vector3i local = voxel - kBlockSize * b;
+  return &block(index).voxels[voxel_index(local.x(), local.y(), local.z())];
+}
+
+std::vector<int> TsdfVolume::sorted_block_indices() const {
+  std::vector<int> order(coords_.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [this](int a, int b) {
+    const Eigen::Vector3i& p = coords_[a];
+    const Eigen::Vector3i& q = coords_[b];
+    if (p.z() != q.z()) return p.z() < q.z();
+    if (p.y() != q.y()) return p.y() < q.y();
+    return p.x() < q.x();
+  });
+  return order;
+}
+
+std::size_t TsdfVolume::memory_bytes() const {
+  return chunks_.size() * (std::size_t{1} << kChunkBits) * sizeof(VoxelBlock) +
+         map_.memory_bytes() + coords_.capacity() * sizeof(Eigen::Vector3i) +
+         last_frame_.capacity() * sizeof(std::uint32_t);
+}
+
+IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                         const Pose& T_world_camera, bool parallel) {
+  IntegrateStats stats;
+  visible_.clear();
+  if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
+    throw usage_error("integrate: depth image is " + std::to_string(depth_m.width()) + "x" +
+                      std::to_string(depth_m.height()) + " but the intrinsics are " +
+                      std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+  if (!T_world_camera.finite()) {
+    stats.skipped = true;
+    return stats;
+  }
+  ++frame_counter_;
+  const int chunks = (depth_m.height() + kRowsPerChunk - 1) / kRowsPerChunk;
+  chunk_keys_.resize(chunks);
+  std::vector<int> chunk_rays(chunks, 0);
+
+  const Eigen::Matrix3f R = T_world_camera.rotation().cast<float>();
+  const Eigen::Vector3f t = T_world_camera.translation().cast<float>();
+  // Block-grid coordinates q = (p_world / voxel + 0.5) / 8: block floor(q) holds the voxel
+  // nearest to p_world.
+  const float to_grid = 1.0f / (voxel_size_ * kBlockSize);
+  const Eigen::Vector3f grid_offset = Eigen::Vector3f::Constant(0.5f / kBlockSize);
+  const float fx_inv = static_cast<float>(1.0 / intrinsics.fx);
+  const float fy_inv = static_cast<float>(1.0 / intrinsics.fy);
+  const float cx = static_cast<float>(intrinsics.cx);
+  const float cy = static_cast<float>(intrinsics.cy);
+  const float trunc = truncation_;
+
+  auto run_chunk = [&](int c) {
+    std::vector<std::uint64_t>& keys = chunk_keys_[c];
+    keys.clear();
+    std::uint64_t cache[1 << kKeyCacheBits];
+    std::fill(std::begin(cache), std::end(cache), BlockHashMap::kEmpty);
+    int rays = 0;
+    const int y_end = std::min(depth_m.height(), (c + 1) * kRowsPerChunk);
+    for (int y = c * kRowsPerChunk; y < y_end; ++y) {
+      const float* row = depth_m.row(y);
+      const float ry = (static_cast<float>(y) - cy) * fy_inv;
+      for (int x = 0; x < depth_m.width(); ++x) {
+        const float d = row[x];
+        if (!valid_depth(d)) continue;
+        ++rays;
+        const Eigen::Vector3f ray((static_cast<float>(x) - cx) * fx_inv, ry, 1.0f);
+        const float z0 = std::max(d - trunc, 0.5f * d);
+        const float z1 = d + trunc;
+        const Eigen::Vector3f a = (R * (ray * z0) + t) * to_grid + grid_offset;
+        const Eigen::Vector3f b = (R * (ray * z1) + t) * to_grid + grid_offset;
+        constexpr float kLimit = static_cast<float>(kMaxBlockCoord);
+        if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
+        traverse_segment(a, b, cache, keys);
+      }
+    }
+    chunk_rays[c] = rays;
+  };
+  if (parallel) {
+    tbb::parallel_for(0, chunks, run_chunk);
+  } else {
+    for (int c = 0; c < chunks; ++c) run_chunk(c);
+  }
+
+  // Serial merge in chunk order: block indices and the visible list are deterministic.
+  for (int c = 0; c < chunks; ++c) {
+    stats.rays += chunk_rays[c];
+    for (const std::uint64_t key : chunk_keys_[c]) {
+      int index = map_.find(key);
+      if (index < 0) {
+        index = allocate_block(unpack(key));
+        if (index < 0) {
+          ++stats.blocks_dropped;
+          continue;
+        }
+        ++stats.blocks_allocated;
+      }
+      if (last_frame_[index] != frame_counter_) {
+        last_frame_[index] = frame_counter_;
+        visible_.push_back(index);
+      }
+    }
+  }
+  stats.blocks_updated = static_cast<int>(visible_.size());
+  return stats;
+}
+
+void TsdfVolume::update_block(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
+                              const Eigen::Matrix3f& R_camera_world,
+                              const Eigen::Vector3f& t_camera_world) {
+  VoxelBlock& blk = block(index);
+  const Eigen::Vector3i base = coords_[index] * kBlockSize;
+  const float fx = static_cast<float>(intrinsics.fx);
+  const float fy = static_cast<float>(intrinsics.fy);
+  const float cx = static_cast<float>(intrinsics.cx);
+  const float cy = static_cast<float>(intrinsics.cy);
+  const float max_u = static_cast<float>(depth_m.width()) - 0.5f;
+  const float max_v = static_cast<float>(depth_m.height()) - 0.5f;
+  const float inv_trunc = 1.0f / truncation_;
+  for (int z = 0; z < kBlockSize; ++z) {
+    for (int y = 0; y < kBlockSize; ++y) {
+      for (int x = 0; x < kBlockSize; ++x) {
+        const Eigen::Vector3f p_world(static_cast<float>(base.x() + x) * voxel_size_,
+                                      static_cast<float>(base.y() + y) * voxel_size_,
+                                      static_cast<float>(base.z() + z) * voxel_size_);
+        const Eigen::Vector3f p = R_camera_world * p_world + t_camera_world;
+        if (!(p.z() > 0.0f)) continue;
+        const float u = fx * p.x() / p.z() + cx;
+        const float v = fy * p.y() / p.z() + cy;
+        if (!(u >= -0.5f && v >= -0.5f && u < max_u && v < max_v)) continue;
+        const int ui = static_cast<int>(u + 0.5f);
+        const int vi = static_cast<int>(v + 0.5f);
+        const float d = depth_m(ui, vi);
+        if (!valid_depth(d)) continue;
+        const float sdf = d - p.z();
+        if (sdf < -truncation_) continue;
+        const float tsdf = std::min(1.0f, sdf * inv_trunc);
+        Voxel& voxel = blk.voxels[voxel_index(x, y, z)];
+        const float w = voxel.weight;
+        voxel.tsdf = (voxel.tsdf * w + tsdf) / (w + 1.0f);
+        voxel.weight = std::min(w + 1.0f, max_weight_);
+      }
+    }
+  }
+}
+
+IntegrateStats TsdfVolume::integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                     const Pose& T_world_camera) {
+  IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, true);
+  if (stats.skipped) return stats;
+  const Pose T_camera_world = T_world_camera.inverse();
+  const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
+  const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visible_.size(), 16),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i)
+                        update_block(visible_[i], depth_m, intrinsics, R, t);
+                    });
+  return stats;
+}
+
+IntegrateStats TsdfVolume::integrate_reference(const Image<float>& depth_m,
+                                               const Intrinsics& intrinsics,
+                                               const Pose& T_world_camera) {
+  IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, false);
+  if (stats.skipped) return stats;
+  const Pose T_camera_world = T_world_camera.inverse();
+  const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
+  const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
+  for (const int index : visible_) update_block(index, depth_m, intrinsics, R, t);
+  return stats;
+}
+
+}  // namespace aoscan

@@ -1,0 +1,261 @@
+/// @file tsdf_volume.h
+/// @brief The sparse truncated signed distance field: 8^3 voxel blocks in a hash of block
+/// coordinates, allocated only near observed surfaces, updated by projective TSDF integration.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/config.h"
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/pose.h"
+
+namespace aoscan {
+
+/// Voxels per block edge; a block holds kBlockSize^3 voxels.
+inline constexpr int kBlockSize = 8;
+inline constexpr int kBlockVoxels = kBlockSize * kBlockSize * kBlockSize;
+
+/// One voxel: `tsdf` is the signed distance divided by the truncation, in [-1, 1] (positive in
+/// front of the surface); `weight` is the number of observations, capped; 0 = never observed.
+struct Voxel {
+  float tsdf = 1.0f;
+  float weight = 0.0f;
+};
+
+/// kBlockSize^3 voxels; voxel (x, y, z) of the block is `voxels[x + 8 * (y + 8 * z)]`.
+struct VoxelBlock {
+  std::array<Voxel, kBlockVoxels> voxels;
+};
+
+/// Index of a voxel inside its block from its local coordinates (0..7 each).
+inline int voxel_index(int x, int y, int z) {
+  return x + kBlockSize * (y + kBlockSize * z);
+}
+
+/// What one integrate() call did.
+struct IntegrateStats {
+  int rays = 0;              ///< valid depth pixels cast
+  int blocks_allocated = 0;  ///< blocks newly allocated by this frame
+  int blocks_updated = 0;    ///< blocks whose voxels were updated (the band of this frame)
+  int blocks_dropped = 0;    ///< blocks the band needed that the capacity did not allow
+  bool skipped = false;      ///< true when the pose was not finite: nothing was done
+};
+
+/// Open-addressing hash map from packed block coordinates to block indices (linear probing,
+/// power-of-two table, grown at half load). Reads are thread-safe; writes are single-threaded.
+class BlockHashMap {
+ public:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+
+  /// The index stored for `key`, or -1.
+  int find(std::uint64_t key) const {
+    if (keys_.empty()) return -1;
+    std::size_t slot = hash(key) & mask_;
+    while (true) {
+      const std::uint64_t k = keys_[slot];
+      if (k == key) return values_[slot];
+      if (k == kEmpty) return -1;
+      slot = (slot + 1) & mask_;
+    }
+  }
+  /// Stores `value` for a key that is not present yet.
+  void insert(std::uint64_t key, int value);
+  void clear();
+  std::size_t memory_bytes() const {
+    return keys_.capacity() * sizeof(std::uint64_t) + values_.capacity() * sizeof(int);
+  }
+
+ private:
+  static std::uint64_t hash(std::uint64_t x) {
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdULL;
+    x ^= x >> 33;
+    x *= 0xc4ceb9fe1a85ec53ULL;
+    x ^= x >> 33;
+    return x;
+  }
+  void grow();
+
+  std::vector<std::uint64_t> keys_;
+  std::vector<int> values_;
+  std::size_t mask_ = 0;
+  std::size_t size_ = 0;
+};
+
+/// The sparse TSDF. World coordinates are metres; the centre of voxel g (integer global voxel
+/// coordinates) is at g * voxel_size_m; block b holds voxels 8b .. 8b+7 on each axis. The only
+/// stateful object of fusion: one writer (integrate, allocate_block, reset), any number of
+/// concurrent readers between writes.
+class TsdfVolume {
+ public:
+  /// Throws usage_error when voxel size, truncation, weight cap or capacity are not usable.
+  explicit TsdfVolume(const FusionConfig& config);
+
+  /// Fuses one depth image (metres, 0 = invalid, size = intrinsics) seen from T_world_camera:
+  /// allocates the blocks that the truncation band [d - truncation, d + truncation] of every
+  /// valid pixel's ray passes through, then updates every voxel of those blocks by projective
+  /// TSDF (sdf = depth(pixel) - z_voxel along the optical axis, running average, weight capped).
+  /// Multi-threaded over blocks through TBB; the result does not depend on the thread count.
+  /// Throws usage_error when the depth size differs from the intrinsics.
+  IntegrateStats integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                           const Pose& T_world_camera);
+  /// Plain single-threaded reference of integrate(): the same per-voxel arithmetic in one loop;
+  /// gives a bit-identical volume.
+  IntegrateStats integrate_reference(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                     const Pose& T_world_camera);
+
+  /// Drops every block (keeps the configuration).
+  void reset();
+
+  /// Index of the block with coordinates `block`, or -1 when it is not allocated.
+  int find_block(const Eigen::Vector3i& block) const { return map_.find(pack(block)); }
+  /// Index of the block, allocating it (all voxels unobserved) when needed; -1 when the capacity
+  /// is exhausted (then capacity_reached() becomes true).
+  int allocate_block(const Eigen::Vector3i& block);
+  /// The voxel at global voxel coordinates, or nullptr when its block is not allocated.
+  const Voxel* find_voxel(const Eigen::Vector3i& voxel) const;
+
+  VoxelBlock& block(int index) { return chunks_[index >> kChunkBits][index & kChunkMask]; }
+  const VoxelBlock& block(int index) const {
+    return chunks_[index >> kChunkBits][index & kChunkMask];
+  }
+  /// Block coordinates of the block stored at `index`.
+  const Eigen::Vector3i& block_coord(int index) const { return coords_[index]; }
+  /// Indices of all allocated blocks ordered by (z, y, x) block coordinates: a deterministic order.
+  std::vector<int> sorted_block_indices() const;
+
+  int block_count() const { return static_cast<int>(coords_.size()); }
+  int max_blocks() const { return max_blocks_; }
+  /// True once an allocation was refused because the capacity was exhausted (sticky until reset).
+  bool capacity_reached() const { return capacity_reached_; }
+  /// Bytes held by blocks and the hash map.
+  std::size_t memory_bytes() const;
+
+  float voxel_size_m() const { return voxel_size_; }
+  float block_size_m() const { return voxel_size_ * kBlockSize; }
+  float truncation_m() const { return truncation_; }
+  float max_weight() const { return max_weight_; }
+
+  /// Packs block coordinates (each within +-2^20) into a hash key.
+  static std::uint64_t pack(const Eigen::Vector3i& b) {
+    constexpr std::uint64_t kMask = (1u << 21) - 1;
+    return (static_cast<std::uint64_t>(b.x() + (1 << 20)) & kMask) |
+           ((static_cast<std::uint64_t>(b.y() + (1 << 20)) & kMask) << 21) |
+           ((static_cast<std::uint64_t>(b.z() + (1 << 20)) & kMask) << 42);
+  }
+  /// Largest |block coordinate| that pack() represents.
+  static constexpr int kMaxBlockCoord = (1 << 20) - 1;
+
+ private:
+  static constexpr int kChunkBits = 10;
+  static constexpr int kChunkMask = (1 << kChunkBits) - 1;
+
+  /// Allocation pass shared by integrate() and integrate_reference(): fills visible_.
+  IntegrateStats allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                               const Pose& T_world_camera, bool parallel);
+  /// Updates the voxels of one block from the frame.
+  void update_block(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
+                    const Eigen::Matrix3f& R_camera_world, const Eigen::Vector3f& t_camera_world);
+
+  float voxel_size_;
+  float truncation_;
+  float max_weight_;
+  int max_blocks_;
+  bool capacity_reached_ = false;
+
+  BlockHashMap map_;
+  std::vector<std::unique_ptr<VoxelBlock[]>> chunks_;
+  std::vector<Eigen::Vector3i> coords_;
+  std::vector<std::uint32_t> last_frame_;  ///< per block: integrate() call that last listed it
+  std::uint32_t frame_counter_ = 0;
+
+  // Per-frame scratch, reused across calls.
+  std::vector<std::vector<std::uint64_t>> chunk_keys_;
+  std::vector<int> visible_;
+};
+
+/// Read access for kernels (raycast, meshing) that remembers the last block it looked up. Not
+/// thread-safe: one per task. Positions are in voxel units (world metres / voxel size), so voxel
+/// g sits at integer position g.
+class TsdfSampler {
+ public:
+  explicit TsdfSampler(const TsdfVolume& volume) : volume_(volume) {}
+
+  /// The voxel at global voxel coordinates (x, y, z), or nullptr when its block is not allocated.
+  const Voxel* voxel(int x, int y, int z) {
+    const Eigen::Vector3i b(x >> 3, y >> 3, z >> 3);  // arithmetic shift = floor division by 8
+    if (b != cached_coord_ || !cached_valid_) {
+      cached_coord_ = b;
+      cached_valid_ = true;
+      const int index =
+          b.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord ? volume_.find_block(b) : -1;
+      cached_block_ = index >= 0 ? &volume_.block(index) : nullptr;
+    }
+    if (cached_block_ == nullptr) return nullptr;
+    return &cached_block_->voxels[voxel_index(x & 7, y & 7, z & 7)];
+  }
+
+  /// Trilinear TSDF at position g (voxel units); false when any of the 8 voxels around g is
+  /// unallocated or has a weight below `min_weight` (at least "observed once" when 0 < it).
+  bool trilinear(const Eigen::Vector3f& g, float& tsdf, float min_weight = 1e-6f) {
+    const float fx = std::floor(g.x()), fy = std::floor(g.y()), fz = std::floor(g.z());
+    const int x = static_cast<int>(fx), y = static_cast<int>(fy), z = static_cast<int>(fz);
+    const float ax = g.x() - fx, ay = g.y() - fy, az = g.z() - fz;
+    float c[8];
+    if ((x & 7) != 7 && (y & 7) != 7 && (z & 7) != 7) {
+      const Voxel* v0 = voxel(x, y, z);
+      if (v0 == nullptr) return false;
+      constexpr int kOffsets[8] = {0, 1, 8, 9, 64, 65, 72, 73};
+      for (int i = 0; i < 8; ++i) {
+        const Voxel& v = v0[kOffsets[i]];
+        if (!(v.weight >= min_weight)) return false;
+        c[i] = v.tsdf;
+      }
+    } else {
+      for (int i = 0; i < 8; ++i) {
+        const Voxel* v = voxel(x + (i & 1), y + ((i >> 1) & 1), z + (i >> 2));
+        if (v == nullptr || !(v->weight >= min_weight)) return false;
+        c[i] = v->tsdf;
+      }
+    }
+    const float c00 = c[0] + ax * (c[1] - c[0]);
+    const float c10 = c[2] + ax * (c[3] - c[2]);
+    const float c01 = c[4] + ax * (c[5] - c[4]);
+    const float c11 = c[6] + ax * (c[7] - c[6]);
+    const float c0 = c00 + ay * (c10 - c00);
+    const float c1 = c01 + ay * (c11 - c01);
+    tsdf = c0 + az * (c1 - c0);
+    return true;
+  }
+
+  /// TSDF gradient at g (per voxel) by central differences of trilinear samples one voxel apart;
+  /// false when a sample is unavailable.
+  bool gradient(const Eigen::Vector3f& g, Eigen::Vector3f& grad) {
+    float p = 0, m = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::Vector3f q = g;
+      q[axis] += 1.0f;
+      if (!trilinear(q, p)) return false;
+      q[axis] -= 2.0f;
+      if (!trilinear(q, m)) return false;
+      grad[axis] = 0.5f * (p - m);
+    }
+    return true;
+  }
+
+ private:
+  const TsdfVolume& volume_;
+  Eigen::Vector3i cached_coord_ = Eigen::Vector3i::Zero();
+  bool cached_valid_ = false;
+  const VoxelBlock* cached_block_ = nullptr;
+};
+
+}  // namespace aoscan

@@ -1,0 +1,154 @@
+// Tests for src/fusion/raycast.cpp: depth and normals of fused analytic scenes from new poses,
+// the fast raycast against the fixed-step reference, empty and bad input.
+#include "fusion/raycast.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "core/status.h"
+#include "test_scenes.h"
+
+namespace aoscan {
+namespace {
+
+const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
+
+/// A sphere in front of a back wall and a floor, fused from three viewpoints.
+struct FusedScene {
+  test::Scene scene;
+  TsdfVolume volume{FusionConfig{}};
+
+  FusedScene() {
+    scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 2.4});
+    scene.planes.push_back({Eigen::Vector3d(0, 1, 0), 0.6});
+    scene.spheres.push_back({Eigen::Vector3d(0.05, 0.1, 1.6), 0.35});
+    Image<float> depth;
+    for (const Pose& pose :
+         {test::look_at({0, 0, 0}, {0, 0.1, 1.6}), test::look_at({-0.4, -0.1, 0.2}, {0, 0.1, 1.6}),
+          test::look_at({0.4, -0.2, 0.1}, {0, 0.1, 1.6})}) {
+      test::render(scene, kKinect, pose, depth);
+      volume.integrate(depth, kKinect, pose);
+    }
+  }
+};
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(q * (v.size() - 1))];
+}
+
+TEST(Raycast, FusedSceneFromNewPoseMatchesAnalyticDepthAndNormals) {
+  const FusedScene fused;
+  const Pose pose = test::look_at({0.15, -0.05, 0.1}, {0, 0.1, 1.6});
+  RaycastResult result;
+  raycast(fused.volume, kKinect, pose, FusionConfig{}, result);
+  Image<float> truth;
+  PointMaps truth_maps;
+  test::render(fused.scene, kKinect, pose, truth, &truth_maps);
+  std::vector<double> depth_errors, angle_errors;
+  int truth_valid = 0;
+  for (int y = 2; y < kKinect.height - 2; ++y) {
+    for (int x = 2; x < kKinect.width - 2; ++x) {
+      if (truth(x, y) <= 0) continue;
+      // Skip depth discontinuities, where a pixel's ray grazes the silhouette.
+      bool edge = false;
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx)
+          edge |= std::abs(truth(x + dx, y + dy) - truth(x, y)) > 0.05f;
+      // Only surfaces seen within 60 degrees of the view ray: at grazing angles the projective
+      // TSDF itself is inaccurate, whatever the raycast does.
+      const Eigen::Vector3f& n = truth_maps.normals(x, y);
+      if (edge || -n.dot(truth_maps.vertices(x, y).normalized()) < 0.5f) continue;
+      ++truth_valid;
+      if (result.depth_m(x, y) <= 0) continue;
+      depth_errors.push_back(std::abs(result.depth_m(x, y) - truth(x, y)));
+      const double c = result.maps.normals(x, y).dot(truth_maps.normals(x, y));
+      angle_errors.push_back(std::acos(std::min(1.0, c)) * 180.0 / M_PI);
+      EXPECT_NEAR((result.maps.vertices(x, y) - truth_maps.vertices(x, y)).norm(),
+                  depth_errors.back() * truth_maps.vertices(x, y).norm() / truth(x, y), 1e-4);
+    }
+  }
+  EXPECT_GT(depth_errors.size(), 0.97 * truth_valid);
+  EXPECT_EQ(result.hits,
+            std::count_if(result.depth_m.data(), result.depth_m.data() + result.depth_m.size(),
+                          [](float d) { return d > 0; }));
+  EXPECT_LT(percentile(depth_errors, 0.5), 0.0005);
+  EXPECT_LT(percentile(depth_errors, 0.99), 0.002);
+  EXPECT_LT(percentile(angle_errors, 0.5), 1.0);
+  EXPECT_LT(percentile(angle_errors, 0.95), 3.0);
+  EXPECT_TRUE(result.T_world_camera.matrix().isApprox(pose.matrix()));
+  EXPECT_EQ(result.maps.intrinsics, kKinect);
+}
+
+TEST(Raycast, FastRaycastAgreesWithFixedStepReference) {
+  const FusedScene fused;
+  const Pose pose = test::look_at({-0.1, 0.0, 0.05}, {0, 0.1, 1.6});
+  const Intrinsics small = kKinect.scaled(2);
+  FusionConfig config;
+  config.raycast_min_depth_m = 0.5;
+  config.raycast_max_depth_m = 3.0;
+  RaycastResult fast, reference;
+  raycast(fused.volume, small, pose, config, fast);
+  raycast_reference(fused.volume, small, pose, config, 0.25f, reference);
+  int both = 0, disagree_mask = 0, far_off = 0;
+  for (int y = 0; y < small.height; ++y) {
+    for (int x = 0; x < small.width; ++x) {
+      const bool a = fast.depth_m(x, y) > 0, b = reference.depth_m(x, y) > 0;
+      if (a != b) ++disagree_mask;
+      if (!a || !b) continue;
+      ++both;
+      if (std::abs(fast.depth_m(x, y) - reference.depth_m(x, y)) > 0.0005f) ++far_off;
+    }
+  }
+  EXPECT_GT(both, small.width * small.height / 2);
+  EXPECT_LE(disagree_mask, both / 200);  // 0.5 % at silhouettes
+  EXPECT_LE(far_off, both / 1000);
+}
+
+TEST(Raycast, SameResultForOneAndTwoThreads) {
+  const FusedScene fused;
+  const Pose pose = test::look_at({0.1, 0.0, 0.0}, {0, 0.1, 1.6});
+  RaycastResult one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    raycast(fused.volume, kKinect, pose, FusionConfig{}, one);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    raycast(fused.volume, kKinect, pose, FusionConfig{}, two);
+  }
+  EXPECT_TRUE(one.depth_m == two.depth_m);
+  EXPECT_TRUE(one.maps.vertices == two.maps.vertices);
+  EXPECT_TRUE(one.maps.normals == two.maps.normals);
+}
+
+TEST(Raycast, EmptyVolumeAndBadPoseGiveNoHits) {
+  TsdfVolume volume{FusionConfig{}};
+  RaycastResult result;
+  raycast(volume, kKinect, Pose::identity(), FusionConfig{}, result);
+  EXPECT_EQ(result.hits, 0);
+  EXPECT_EQ(result.depth_m.width(), 640);
+  const FusedScene fused;
+  raycast(fused.volume, kKinect,
+          Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, std::nan(""))), FusionConfig{},
+          result);
+  EXPECT_EQ(result.hits, 0);
+  raycast(fused.volume, kKinect, Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1e12, 0, 0)),
+          FusionConfig{}, result);
+  EXPECT_EQ(result.hits, 0);
+  // Looking away from everything.
+  raycast(fused.volume, kKinect, test::look_at({0, 0, 0}, {0, 0, -1}), FusionConfig{}, result);
+  EXPECT_EQ(result.hits, 0);
+  FusionConfig bad;
+  bad.raycast_min_depth_m = 3.0;
+  bad.raycast_max_depth_m = 1.0;
+  EXPECT_THROW(raycast(fused.volume, kKinect, Pose::identity(), bad, result), Error);
+}
+
+}  // namespace
+}  // namespace aoscan

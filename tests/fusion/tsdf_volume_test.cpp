@@ -1,0 +1,237 @@
+// Tests for src/fusion/tsdf_volume.cpp: band allocation, projective TSDF values, weight cap,
+// multi-threaded vs reference integration, capacity, bad input.
+#include "fusion/tsdf_volume.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "core/status.h"
+#include "test_scenes.h"
+
+namespace aoscan {
+namespace {
+
+const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
+
+FusionConfig default_fusion() {
+  return FusionConfig{};
+}
+
+test::Scene plane_scene(double z) {
+  test::Scene s;
+  s.planes.push_back({Eigen::Vector3d(0, 0, 1), z});
+  return s;
+}
+
+/// Calls f(voxel, world centre) for every observed voxel.
+template <class F>
+void for_each_observed(const TsdfVolume& volume, F f) {
+  for (int i = 0; i < volume.block_count(); ++i) {
+    const Eigen::Vector3i base = volume.block_coord(i) * kBlockSize;
+    for (int z = 0; z < kBlockSize; ++z)
+      for (int y = 0; y < kBlockSize; ++y)
+        for (int x = 0; x < kBlockSize; ++x) {
+          const Voxel& v = volume.block(i).voxels[voxel_index(x, y, z)];
+          if (v.weight <= 0) continue;
+          f(v, (base + Eigen::Vector3i(x, y, z)).cast<double>() * volume.voxel_size_m());
+        }
+  }
+}
+
+TEST(TsdfVolume, FrontalPlaneGivesExactSignedDistance) {
+  TsdfVolume volume(default_fusion());
+  Image<float> depth;
+  test::render(plane_scene(1.5), kKinect, Pose::identity(), depth);
+  const IntegrateStats stats = volume.integrate(depth, kKinect, Pose::identity());
+  EXPECT_EQ(stats.rays, 640 * 480);
+  EXPECT_EQ(stats.blocks_allocated, volume.block_count());
+  EXPECT_EQ(stats.blocks_updated, volume.block_count());
+  const double trunc = volume.truncation_m();
+  int checked = 0;
+  for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
+    const double expected = std::min(1.0, (1.5 - p.z()) / trunc);
+    EXPECT_NEAR(v.tsdf, expected, 1e-4) << p.transpose();
+    EXPECT_LE(p.z(), 1.5 + trunc + 1e-6);  // nothing observed behind the band
+    ++checked;
+  });
+  EXPECT_GT(checked, 100000);
+}
+
+TEST(TsdfVolume, AllocatesOnlyBlocksNearTheSurface) {
+  TsdfVolume volume(default_fusion());
+  Image<float> depth;
+  const double z = 1.5;
+  test::render(plane_scene(z), kKinect, Pose::identity(), depth);
+  volume.integrate(depth, kKinect, Pose::identity());
+  const double block = volume.block_size_m();
+  const double voxel = volume.voxel_size_m();
+  // Every block's voxel-centre box lies within the truncation band of the plane.
+  for (int i = 0; i < volume.block_count(); ++i) {
+    const double z_lo = (volume.block_coord(i).z() * kBlockSize - 0.5) * voxel;
+    const double z_hi = z_lo + block;
+    EXPECT_LT(z_lo, z + volume.truncation_m() + 1e-6);
+    EXPECT_GT(z_hi, z - volume.truncation_m() - 1e-6);
+  }
+  // The plane seen in the image covers w x h metres; the band is at most 3 blocks thick.
+  const double w = 640.0 / 585.0 * (z + volume.truncation_m());
+  const double h = 480.0 / 585.0 * (z + volume.truncation_m());
+  const int max_blocks = 3 * (static_cast<int>(w / block) + 2) * (static_cast<int>(h / block) + 2);
+  const int min_blocks = static_cast<int>(640.0 / 585.0 * z * 480.0 / 585.0 * z / (block * block));
+  EXPECT_LE(volume.block_count(), max_blocks);
+  EXPECT_GE(volume.block_count(), min_blocks);
+}
+
+TEST(TsdfVolume, SphereSignedDistanceWithinAVoxel) {
+  TsdfVolume volume(default_fusion());
+  test::Scene scene;
+  const Eigen::Vector3d centre(0.1, -0.05, 1.6);
+  const double radius = 0.4;
+  scene.spheres.push_back({centre, radius});
+  Image<float> depth;
+  test::render(scene, kKinect, Pose::identity(), depth);
+  volume.integrate(depth, kKinect, Pose::identity());
+  const double trunc = volume.truncation_m();
+  int checked = 0;
+  for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
+    const double sd = (p - centre).norm() - radius;
+    // Near the surface, on the cap facing the camera (within 30 degrees of the view ray).
+    const Eigen::Vector3d n = (p - centre).normalized();
+    if (std::abs(sd) > 0.5 * trunc || n.dot(-p.normalized()) < std::cos(M_PI / 6)) return;
+    EXPECT_NEAR(v.tsdf * trunc, sd, volume.voxel_size_m()) << p.transpose();
+    ++checked;
+  });
+  EXPECT_GT(checked, 1000);
+}
+
+TEST(TsdfVolume, WeightsAreCappedAndAveragesStay) {
+  FusionConfig config = default_fusion();
+  config.max_weight = 3.0;
+  TsdfVolume volume(config);
+  Image<float> depth;
+  test::render(plane_scene(1.2), kKinect, Pose::identity(), depth);
+  for (int i = 0; i < 5; ++i) volume.integrate(depth, kKinect, Pose::identity());
+  float max_weight = 0;
+  const double trunc = volume.truncation_m();
+  for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
+    max_weight = std::max(max_weight, v.weight);
+    EXPECT_NEAR(v.tsdf, std::min(1.0, (1.2 - p.z()) / trunc), 1e-4);
+  });
+  EXPECT_EQ(max_weight, 3.0f);
+}
+
+TEST(TsdfVolume, ParallelIntegrationMatchesReferenceExactly) {
+  const test::Scene scene = test::corner_scene();
+  const Pose poses[] = {test::look_at({0.4, -0.2, 0.2}, {-0.3, 0.6, 2.6}),
+                        test::look_at({0.0, -0.3, 0.4}, {-0.2, 0.5, 2.5}),
+                        test::look_at({0.6, 0.0, 0.6}, {-0.4, 0.7, 2.7})};
+  TsdfVolume fast(default_fusion()), reference(default_fusion());
+  Image<float> depth;
+  unsigned seed = 3;
+  for (const Pose& pose : poses) {
+    test::render(scene, kKinect, pose, depth, nullptr, 0.004, seed++);
+    const IntegrateStats a = fast.integrate(depth, kKinect, pose);
+    const IntegrateStats b = reference.integrate_reference(depth, kKinect, pose);
+    EXPECT_EQ(a.blocks_allocated, b.blocks_allocated);
+    EXPECT_EQ(a.blocks_updated, b.blocks_updated);
+  }
+  ASSERT_EQ(fast.block_count(), reference.block_count());
+  for (int i = 0; i < fast.block_count(); ++i) {
+    ASSERT_EQ(fast.block_coord(i), reference.block_coord(i));
+    ASSERT_EQ(0, std::memcmp(&fast.block(i), &reference.block(i), sizeof(VoxelBlock)))
+        << "block " << i;
+  }
+}
+
+TEST(TsdfVolume, SameVolumeForOneAndTwoThreads) {
+  const test::Scene scene = test::corner_scene();
+  const Pose pose = test::look_at({0.4, -0.2, 0.2}, {-0.3, 0.6, 2.6});
+  Image<float> depth;
+  test::render(scene, kKinect, pose, depth, nullptr, 0.004, 9);
+  TsdfVolume one(default_fusion()), two(default_fusion());
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one.integrate(depth, kKinect, pose);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    two.integrate(depth, kKinect, pose);
+  }
+  ASSERT_EQ(one.block_count(), two.block_count());
+  for (int i = 0; i < one.block_count(); ++i)
+    ASSERT_EQ(0, std::memcmp(&one.block(i), &two.block(i), sizeof(VoxelBlock)));
+}
+
+TEST(TsdfVolume, CapacityLimitIsReported) {
+  FusionConfig config = default_fusion();
+  config.max_blocks = 10;
+  TsdfVolume volume(config);
+  Image<float> depth;
+  test::render(plane_scene(1.5), kKinect, Pose::identity(), depth);
+  const IntegrateStats stats = volume.integrate(depth, kKinect, Pose::identity());
+  EXPECT_EQ(volume.block_count(), 10);
+  EXPECT_EQ(stats.blocks_allocated, 10);
+  EXPECT_GT(stats.blocks_dropped, 0);
+  EXPECT_TRUE(volume.capacity_reached());
+  volume.reset();
+  EXPECT_EQ(volume.block_count(), 0);
+  EXPECT_FALSE(volume.capacity_reached());
+}
+
+TEST(TsdfVolume, BadInputNeverCrashes) {
+  TsdfVolume volume(default_fusion());
+  Image<float> depth(640, 480, 1.0f);
+  depth(3, 3) = std::numeric_limits<float>::quiet_NaN();
+  depth(4, 3) = std::numeric_limits<float>::infinity();
+  depth(5, 3) = -2.0f;
+  EXPECT_THROW(volume.integrate(Image<float>(320, 240, 1.0f), kKinect, Pose::identity()), Error);
+  Pose bad(Eigen::Matrix3d::Identity(),
+           Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0));
+  EXPECT_TRUE(volume.integrate(depth, kKinect, bad).skipped);
+  EXPECT_EQ(volume.block_count(), 0);
+  const IntegrateStats stats = volume.integrate(depth, kKinect, Pose::identity());
+  EXPECT_EQ(stats.rays, 640 * 480 - 3);
+  // Far away from the origin: block coordinates beyond the packable range are dropped, not
+  // wrapped.
+  const Pose far(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1e9, 0, 0));
+  volume.integrate(depth, kKinect, far);
+  for (int i = 0; i < volume.block_count(); ++i)
+    EXPECT_LE(volume.block_coord(i).cwiseAbs().maxCoeff(), TsdfVolume::kMaxBlockCoord);
+  FusionConfig config = default_fusion();
+  config.truncation_m = config.voxel_size_m / 2;
+  EXPECT_THROW(TsdfVolume{config}, Error);
+}
+
+TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
+  TsdfVolume volume(default_fusion());
+  // Write a linear field tsdf = 0.01 * x into 2x2x2 blocks around the origin.
+  for (int bz = -1; bz <= 0; ++bz)
+    for (int by = -1; by <= 0; ++by)
+      for (int bx = -1; bx <= 0; ++bx) {
+        const int i = volume.allocate_block({bx, by, bz});
+        ASSERT_GE(i, 0);
+        for (int z = 0; z < 8; ++z)
+          for (int y = 0; y < 8; ++y)
+            for (int x = 0; x < 8; ++x)
+              volume.block(i).voxels[voxel_index(x, y, z)] = {0.01f * (bx * 8 + x), 1.0f};
+      }
+  TsdfSampler sampler(volume);
+  float f = 0;
+  ASSERT_TRUE(sampler.trilinear(Eigen::Vector3f(-0.25f, 0.5f, -0.5f), f));
+  EXPECT_NEAR(f, -0.0025f, 1e-6f);
+  ASSERT_TRUE(sampler.trilinear(Eigen::Vector3f(3.5f, 3.5f, 3.5f), f));
+  EXPECT_NEAR(f, 0.035f, 1e-6f);
+  EXPECT_FALSE(sampler.trilinear(Eigen::Vector3f(7.5f, 0.0f, 0.0f), f));  // needs block x = 1
+  Eigen::Vector3f grad;
+  ASSERT_TRUE(sampler.gradient(Eigen::Vector3f(-1.0f, 0.2f, -0.3f), grad));
+  EXPECT_NEAR(grad.x(), 0.01f, 1e-6f);
+  EXPECT_NEAR(grad.y(), 0.0f, 1e-6f);
+  ASSERT_NE(volume.find_voxel({-8, -8, -8}), nullptr);
+  EXPECT_EQ(volume.find_voxel({8, 0, 0}), nullptr);
+}
+
+}  // namespace
+}  // namespace aoscan
