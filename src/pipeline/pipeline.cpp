@@ -8,7 +8,6 @@
 #include <thread>
 
 #include "core/log.h"
-#include "fusion/preprocess.h"
 #include "pipeline/bounded_queue.h"
 #include "pipeline/frame_pool.h"
 
@@ -200,15 +199,6 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
   result.counters.frames_dropped = queues.empty() ? 0 : queues[0]->dropped();
   result.wall_s = static_cast<double>(state.last_done_ns.load()) * 1e-9;
   return result;
-}
-
-std::vector<StageDef> make_default_stages(const Config& config) {
-  std::vector<StageDef> stages;
-  stages.push_back({"preprocess", [cfg = config.preprocess](FrameWork& frame) {
-                      preprocess_depth(frame.raw, cfg, frame.depth_m);
-                      return Status::ok();
-                    }});
-  return stages;
 }
 
 }  // namespace aoscan

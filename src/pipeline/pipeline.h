@@ -19,14 +19,18 @@
 #include "core/depth_frame.h"
 #include "core/image.h"
 #include "core/status.h"
+#include "fusion/preprocess.h"
+#include "fusion/reconstruction.h"
 #include "pipeline/stage_stats.h"
 
 namespace aoscan {
 
 /// Everything one frame accumulates on its way through the chain; recycled between frames.
 struct FrameWork {
-  DepthFrame raw;        ///< as read from the source
-  Image<float> depth_m;  ///< metres after range clip and border-outlier removal (0 = invalid)
+  DepthFrame raw;          ///< as read from the source
+  PreprocessedFrame pre;   ///< metres, outliers removed, filtered, tracking pyramid
+  FusionStep fusion;       ///< tracking status and pose
+  std::shared_ptr<const RaycastResult> raycast;  ///< the model seen from this frame's pose, when tracked
 };
 
 /// A processing step of the chain. It runs on its own thread; `process` returns ok to pass the
@@ -72,8 +76,5 @@ struct PipelineResult {
 PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
                             const PipelineOptions& options,
                             const std::atomic<bool>& stop_requested);
-
-/// The stages available so far, configured from `config`.
-std::vector<StageDef> make_default_stages(const Config& config);
 
 }  // namespace aoscan

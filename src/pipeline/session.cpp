@@ -15,6 +15,7 @@
 #include <tbb/global_control.h>
 
 #include "core/log.h"
+#include "pipeline/processing.h"
 
 namespace aoscan {
 namespace {
@@ -70,6 +71,10 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
                         {"ms_max", t.ms_max}};
   }
   j["stages"] = stages;
+  j["mesh"] = {{"vertices", r.mesh_vertices}, {"faces", r.mesh_faces}};
+  j["tsdf"] = {{"blocks", r.tsdf_blocks},
+               {"memory_mb", r.tsdf_memory_mb},
+               {"capacity_reached", r.tsdf_capacity_reached}};
   j["status"] = r.exit_code == ExitCode::kOk ? "ok" : r.error;
   std::ofstream out(path);
   out << j.dump(2) << "\n";
@@ -107,7 +112,9 @@ SessionResult run_session(Source& source, const SessionOptions& options,
     popts.on_progress = [&progress](const Progress& p) { progress.update(p); };
 
   SessionResult result;
-  result.pipeline = run_pipeline(source, make_default_stages(options.config), popts, stop_requested);
+  Processing processing(options.config);
+  result.pipeline = run_pipeline(source, processing.stages(), popts, stop_requested);
+  result.pipeline.counters.frames_tracking_lost = processing.frames_tracking_lost();
   progress.finish();
 
   const Status& status = result.pipeline.status;
@@ -121,8 +128,17 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   }
 
   const auto export_start = Clock::now();
-  // Outputs of the stages are written here (mesh, trajectory, volume arrive with fusion).
+  const Processing::ExportStats exported = processing.write_outputs(options.out_dir);
   result.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
+  result.mesh_vertices = exported.mesh_vertices;
+  result.mesh_faces = exported.mesh_faces;
+  const TsdfVolume& volume = processing.reconstruction().volume();
+  result.tsdf_blocks = static_cast<std::size_t>(volume.block_count());
+  result.tsdf_memory_mb = static_cast<double>(volume.memory_bytes()) / (1024.0 * 1024.0);
+  result.tsdf_capacity_reached = volume.capacity_reached();
+  if (result.tsdf_capacity_reached)
+    spdlog::warn("the TSDF reached its capacity of {} blocks (fusion.max_blocks): surface beyond it "
+                 "was not fused", volume.max_blocks());
   write_stats_json((std::filesystem::path(options.out_dir) / "stats.json").string(), result,
                    threads);
   spdlog::info("{} frames processed in {:.2f} s", result.pipeline.counters.frames_processed,

@@ -27,10 +27,15 @@ struct SessionResult {
   std::string error;  ///< one line when exit_code != kOk
   PipelineResult pipeline;
   double export_s = 0.0;
+  std::size_t mesh_vertices = 0;
+  std::size_t mesh_faces = 0;
+  std::size_t tsdf_blocks = 0;
+  double tsdf_memory_mb = 0.0;
+  bool tsdf_capacity_reached = false;
 };
 
-/// Runs `source` through the chain, then writes stats.json (and every other output the stages
-/// produce) into options.out_dir — also when the run stopped on an error or a signal, so nothing
+/// Runs `source` through the chain, then writes trajectory.txt, mesh.ply and stats.json into
+/// options.out_dir — also when the run stopped on an error or a signal, so nothing
 /// already fused is lost. Throws Error only when the output folder cannot be created.
 SessionResult run_session(Source& source, const SessionOptions& options,
                           const std::atomic<bool>& stop_requested);

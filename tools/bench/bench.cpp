@@ -13,6 +13,7 @@
 #include "core/config.h"
 #include "core/log.h"
 #include "pipeline/pipeline.h"
+#include "pipeline/processing.h"
 #include "pipeline/session.h"
 #include "pipeline/stage_stats.h"
 
@@ -41,14 +42,17 @@ void print_table(const std::string& title, const std::vector<StageStats>& stages
 /// Every stage in turn on one thread, frame by frame.
 int run_serial(const std::string& spec, const Config& config, std::optional<std::size_t> max_frames,
                int repeat) {
-  const std::vector<StageDef> stages = make_default_stages(config);
   std::vector<StageStats> stats;
-  stats.emplace_back("capture");
-  for (const StageDef& s : stages) stats.emplace_back(s.name);
-  FrameWork frame;
-  std::size_t frames = 0;
+  std::size_t frames = 0, lost = 0;
   double wall_s = 0;
   for (int r = 0; r < repeat; ++r) {
+    Processing processing(config);  // every pass starts a new model
+    const std::vector<StageDef> stages = processing.stages();
+    if (stats.empty()) {
+      stats.emplace_back("capture");
+      for (const StageDef& s : stages) stats.emplace_back(s.name);
+    }
+    FrameWork frame;
     std::unique_ptr<Source> source = open_source(spec);
     const auto start = Clock::now();
     for (std::size_t i = 0; !max_frames || i < *max_frames; ++i) {
@@ -67,8 +71,10 @@ int run_serial(const std::string& spec, const Config& config, std::optional<std:
       ++frames;
     }
     wall_s += std::chrono::duration<double>(Clock::now() - start).count();
+    lost += processing.frames_tracking_lost();
   }
   print_table(spec + " (serial, one thread)", stats, wall_s, frames);
+  std::printf("  tracking lost on %zu frames; peak RSS %.0f MB\n", lost, peak_rss_mb());
   return 0;
 }
 
@@ -77,14 +83,15 @@ int run_chain(const std::string& spec, const Config& config, std::optional<std::
               int repeat) {
   std::vector<StageStats> all;
   double wall_s = 0;
-  std::size_t frames = 0;
+  std::size_t frames = 0, lost = 0;
   for (int r = 0; r < repeat; ++r) {
     std::unique_ptr<Source> source = open_source(spec);
     PipelineOptions options;
     options.max_frames = max_frames;
     options.queue_capacity = static_cast<std::size_t>(config.pipeline.queue_capacity);
     std::atomic<bool> stop{false};
-    PipelineResult result = run_pipeline(*source, make_default_stages(config), options, stop);
+    Processing processing(config);
+    PipelineResult result = run_pipeline(*source, processing.stages(), options, stop);
     if (!result.status.is_ok()) throw Error(result.status.exit_code(), result.status.message());
     if (all.empty()) {
       all = std::move(result.stages);
@@ -94,9 +101,10 @@ int run_chain(const std::string& spec, const Config& config, std::optional<std::
     }
     wall_s += result.wall_s;
     frames += result.counters.frames_processed;
+    lost += processing.frames_tracking_lost();
   }
   print_table(spec + " (threaded chain)", all, wall_s, frames);
-  std::printf("  peak RSS %.0f MB\n", peak_rss_mb());
+  std::printf("  tracking lost on %zu frames; peak RSS %.0f MB\n", lost, peak_rss_mb());
   return 0;
 }
 

@@ -1,0 +1,63 @@
+/// @file reconstruction.h
+/// @brief The KinectFusion loop for one frame at a time: track against the model raycast,
+/// integrate into the TSDF, raycast the model at the new pose. The one stateful owner of fusion.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+
+#include "core/config.h"
+#include "core/mesh.h"
+#include "core/pose.h"
+#include "fusion/icp.h"
+#include "fusion/preprocess.h"
+#include "fusion/raycast.h"
+#include "fusion/tsdf_volume.h"
+
+namespace aoscan {
+
+/// What happened to one frame.
+struct FusionStep {
+  TrackingStatus status = TrackingStatus::kLost;
+  Pose T_world_camera;     ///< the tracked pose (the last good pose when lost)
+  bool integrated = false; ///< the frame was fused into the TSDF
+  bool new_model = false;  ///< the first frame of a model (after start or reset): not tracked
+  IcpResult icp;           ///< tracking details (empty for the first frame of a model)
+  IntegrateStats integrate;
+};
+
+/// Tracks and fuses a stream of preprocessed frames. World frame = camera frame of the first
+/// frame of the model. Only this object writes the TSDF; raycasts it publishes are immutable.
+class Reconstruction {
+ public:
+  explicit Reconstruction(const Config& config);
+
+  /// Tracks `frame` against the last model raycast (from the last good pose), integrates it unless
+  /// tracking is lost, and raycasts the model at the new pose into `raycast_out`, which becomes the
+  /// next tracking reference (keep it unchanged afterwards: it is shared from then on). When lost,
+  /// `raycast_out` is left untouched and the reference stays the last good one, so tracking keeps
+  /// trying from there and recovers when the camera comes back.
+  /// With `integrate` false (paused) the frame is tracked and raycast but not fused.
+  FusionStep process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
+                     std::shared_ptr<RaycastResult> raycast_out, bool integrate = true);
+
+  /// Starts a new model: empty TSDF, identity pose for the next frame.
+  void reset();
+
+  const TsdfVolume& volume() const { return volume_; }
+  /// The fused surface (world frame) by marching cubes with vertex normals.
+  TriangleMesh extract_mesh() const;
+  /// The current tracking reference (null before the first frame and after reset()).
+  std::shared_ptr<const RaycastResult> model() const { return model_; }
+  std::size_t frames_lost() const { return frames_lost_; }
+
+ private:
+  Config config_;
+  TsdfVolume volume_;
+  IcpWorkspace icp_workspace_;
+  std::shared_ptr<const RaycastResult> model_;
+  Pose T_world_last_;
+  std::size_t frames_lost_ = 0;
+};
+
+}  // namespace aoscan

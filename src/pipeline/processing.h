@@ -1,0 +1,61 @@
+/// @file processing.h
+/// @brief aoscan's processing stages and the state each one owns (one writer per structure):
+/// preprocess → track+integrate(+raycast). Used by replay/scan sessions and by the benchmark.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/config.h"
+#include "core/mesh.h"
+#include "fusion/reconstruction.h"
+#include "io/tum.h"
+#include "pipeline/frame_pool.h"
+#include "pipeline/pipeline.h"
+
+namespace aoscan {
+
+/// Owns the reconstruction and what the stages collect; hands out the stage functions.
+class Processing {
+ public:
+  explicit Processing(const Config& config);
+
+  /// The stages in chain order. They capture `this`: keep this object alive while they run.
+  std::vector<StageDef> stages();
+
+  /// Asks the track stage to start a new model before its next frame (thread-safe).
+  void request_reset() { reset_requested_.store(true); }
+  /// Pauses / resumes integration: frames are still tracked and counted (thread-safe).
+  void set_paused(bool paused) { paused_.store(paused); }
+
+  /// Poses of the tracked frames, in order (read after the chain has stopped).
+  const std::vector<StampedPose>& trajectory() const { return trajectory_; }
+  std::size_t frames_tracking_lost() const { return frames_tracking_lost_; }
+  const Reconstruction& reconstruction() const { return reconstruction_; }
+
+  /// Writes trajectory.txt and mesh.ply into `out_dir` (read after the chain has stopped).
+  /// Returns the mesh statistics for stats.json.
+  struct ExportStats {
+    std::size_t mesh_vertices = 0;
+    std::size_t mesh_faces = 0;
+  };
+  ExportStats write_outputs(const std::string& out_dir) const;
+
+ private:
+  Status preprocess(FrameWork& frame) const;
+  Status track(FrameWork& frame);
+
+  Config config_;
+  /// Raycasts in flight (tracking reference + downstream); declared before reconstruction_,
+  /// which holds one of them, so that it outlives every pointer it handed out.
+  ObjectPool<RaycastResult> raycasts_;
+  Reconstruction reconstruction_;
+  std::vector<StampedPose> trajectory_;
+  std::size_t frames_tracking_lost_ = 0;
+  std::atomic<bool> reset_requested_{false};
+  std::atomic<bool> paused_{false};
+};
+
+}  // namespace aoscan
