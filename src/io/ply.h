@@ -3,6 +3,7 @@
 /// little-endian and ASCII PLY (evaluation tools, tests).
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "core/mesh.h"

@@ -61,11 +61,20 @@ nlohmann::json read_stats(const fs::path& out_dir) {
   return nlohmann::json::parse(read_text(out_dir / "stats.json"));
 }
 
-/// Exactly one line on stderr, starting with "aoscan: error:" and mentioning `needle`.
+/// The error is exactly one line, the last on stderr, starting with "aoscan: error:" and
+/// mentioning `needle` (warnings about skipped frames may come before it).
 void expect_one_line_error(const CliResult& r, const std::string& needle) {
-  EXPECT_EQ(r.err.rfind("aoscan: error: ", 0), 0u) << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.back(), '\n') << r.err;
+  const std::size_t start = r.err.rfind('\n', r.err.size() - 2);
+  const std::string last = r.err.substr(start == std::string::npos ? 0 : start + 1);
+  EXPECT_EQ(last.rfind("aoscan: error: ", 0), 0u) << r.err;
+  std::size_t errors = 0;
+  for (std::size_t at = r.err.find("aoscan: error:"); at != std::string::npos;
+       at = r.err.find("aoscan: error:", at + 1))
+    ++errors;
+  EXPECT_EQ(errors, 1u) << r.err;
+  EXPECT_NE(last.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
 }
 
 /// Records a small synthetic recording into dir/rec (64x48 keeps it fast).
@@ -273,6 +282,31 @@ TEST(Cli, ReplaysRedKitchen) {
   const nlohmann::json stats = read_stats(dir / "o");
   EXPECT_EQ(stats["frames_processed"], 500);
   EXPECT_EQ(stats["frames_corrupt"], 0);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Readme, DocumentsEveryConfigurationKey) {
+  const fs::path dir = temp_dir("readme");
+  const CliResult config = run_cli("config", dir);
+  ASSERT_EQ(config.exit_code, 0);
+  const std::string readme = read_text(fs::path(AOSCAN_SOURCE_DIR) / "README.md");
+  std::istringstream lines(config.out);
+  std::string line, section;
+  int keys = 0;
+  while (std::getline(lines, line)) {
+    if (line.empty()) continue;
+    if (line[0] != ' ') {
+      section = line.substr(0, line.find(':'));
+      continue;
+    }
+    const std::string key = section + "." + line.substr(2, line.find(':') - 2);
+    EXPECT_NE(readme.find("`" + key + "`"), std::string::npos) << key << " is not in README.md";
+    ++keys;
+  }
+  EXPECT_GT(keys, 10);
 }
 
 }  // namespace

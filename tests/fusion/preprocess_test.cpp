@@ -334,45 +334,6 @@ TEST(PreprocessRealData, FastEqualsReferenceOnRedKitchen) {
   std::cout << "[ info     ] border outliers removed: " << 100.0 * share << " % of valid pixels\n";
 }
 
-/// Mean wall time of `f` over `iterations` runs, in ms.
-double time_ms(int iterations, const std::function<void()>& f) {
-  f();
-  const auto start = std::chrono::steady_clock::now();
-  for (int i = 0; i < iterations; ++i) f();
-  const std::chrono::duration<double, std::milli> elapsed =
-      std::chrono::steady_clock::now() - start;
-  return elapsed.count() / iterations;
-}
-
-// Prints single-thread timings of the preprocessing kernels on a real frame; asserts nothing about
-// speed.
-TEST(PreprocessRealData, TimingReport) {
-  if (!std::filesystem::exists(test::redkitchen_dir()))
-    GTEST_SKIP() << "shared data folder " << test::redkitchen_dir() << " is absent";
-  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
-  DepthFrame f;
-  f.depth_scale = 1000.0;
-  f.intrinsics = test::redkitchen_intrinsics();
-  ASSERT_TRUE(test::read_png16(test::redkitchen_frame(100), f.depth));
-  const PreprocessConfig config;
-  Image<float> metres, out, ref, filtered;
-  PreprocessedFrame frame;
-  DepthPyramid pyramid;
-  const int n = 50;
-  std::cout << "[ info     ] 640x480 ms/frame: to_metres "
-            << time_ms(n, [&] { depth_to_metres(f, config, metres); }) << ", outliers fast "
-            << time_ms(n, [&] { remove_border_outliers(metres, 0.02f, out); })
-            << ", outliers reference "
-            << time_ms(n, [&] { remove_border_outliers_reference(metres, 0.02f, ref); })
-            << ", fused preprocess_depth " << time_ms(n, [&] { preprocess_depth(f, config, out); })
-            << ", bilateral fast " << time_ms(5, [&] { bilateral_filter(out, config, filtered); })
-            << ", bilateral reference "
-            << time_ms(1, [&] { bilateral_filter_reference(out, config, ref); })
-            << ", build_pyramid "
-            << time_ms(5, [&] { build_pyramid(filtered, f.intrinsics, config, pyramid); })
-            << ", preprocess_frame " << time_ms(5, [&] { preprocess_frame(f, config, frame); })
-            << "\n";
-}
 
 }  // namespace
 }  // namespace aoscan

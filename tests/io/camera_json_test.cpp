@@ -1,4 +1,6 @@
-// Tests for src/io/camera_json.h: parsing, every rejected input, round trip, folder defaults.
+/// @file camera_json_test.cpp
+/// @brief Tests for src/io/camera_json.h: parsing, every rejected input, round trip, folder
+/// defaults.
 #include "io/camera_json.h"
 
 #include <gtest/gtest.h>

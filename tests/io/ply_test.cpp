@@ -1,5 +1,6 @@
-// Tests for src/io/ply.h: the contract's exact header and layout, round trips, determinism,
-// ASCII reading and rejected inputs.
+/// @file ply_test.cpp
+/// @brief Tests for src/io/ply.h: the contract's exact header and layout, round trips, determinism,
+/// ASCII reading and rejected inputs.
 #include "io/ply.h"
 
 #include <cstring>

@@ -1,5 +1,6 @@
-// Tests for src/io/tum.h: file lists, trajectories (parse errors, deterministic round trips),
-// nearest-timestamp association.
+/// @file tum_test.cpp
+/// @brief Tests for src/io/tum.h: file lists, trajectories (parse errors, deterministic round
+/// trips), nearest-timestamp association.
 #include "io/tum.h"
 
 #include <algorithm>

@@ -1,0 +1,164 @@
+/// @file recorder.cpp
+/// @brief record_source(): a Source to a TUM-layout folder, one frame at a time, always consistent.
+#include "capture/recorder.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+#include <spdlog/spdlog.h>
+
+#include "capture/png_depth.h"
+#include "io/camera_json.h"
+#include "io/ply.h"
+#include "io/tum.h"
+
+namespace aoscan {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+[[noreturn]] void write_failed(const std::string& path) {
+  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno ? errno : EIO));
+}
+
+/// Closes `file`, throwing when buffered data could not be written.
+void close_checked(File& file, const std::string& path) {
+  if (!file) return;
+  const bool failed = std::ferror(file.get()) != 0;
+  const int rc = std::fclose(file.release());
+  if (failed || rc != 0) write_failed(path);
+}
+
+/// The source's name on one line, for the depth.txt header.
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+  return s;
+}
+
+}  // namespace
+
+RecordStats record_source(Source& source, const std::string& dir,
+                          std::optional<std::size_t> max_frames,
+                          const std::atomic<bool>* stop_requested) {
+  std::string root = dir;
+  while (root.size() > 1 && root.back() == '/') root.pop_back();
+  const std::string list_path = root + "/depth.txt";
+  std::error_code ec;
+  if (fs::exists(list_path, ec))
+    throw usage_error(root + ": already holds a recording (depth.txt); choose another folder");
+  fs::create_directories(root + "/depth", ec);
+  if (ec) throw Error(ExitCode::kFailure, root + "/depth: cannot create folder: " + ec.message());
+
+  const std::string camera_path = root + "/camera.json";
+  Intrinsics calibration = source.intrinsics();
+  double depth_scale = source.depth_scale();
+  const bool nominal_valid = calibration.valid() && depth_scale > 0;
+  if (nominal_valid) write_camera_json(camera_path, calibration, depth_scale);
+  bool camera_written = nominal_valid;
+
+  if (const TriangleMesh* mesh = source.scene_mesh()) write_ply(root + "/scene.ply", *mesh);
+
+  File list(std::fopen(list_path.c_str(), "wb"));
+  if (!list) write_failed(list_path);
+  std::fprintf(list.get(), "# depth maps recorded by aoscan from %s\n# timestamp filename\n",
+               one_line(source.name()).c_str());
+  if (std::fflush(list.get()) != 0) write_failed(list_path);
+
+  const std::string gt_path = root + "/groundtruth.txt";
+  std::unique_ptr<TrajectoryWriter> ground_truth;
+  RecordStats stats;
+  DepthFrame frame;
+  std::string png_path;
+  char name[64];
+  std::optional<std::uint64_t> last_sequence;
+
+  // Ends the recording: files closed (and checked) before the caller sees the outcome.
+  auto finish = [&] {
+    close_checked(list, list_path);
+    if (ground_truth) ground_truth->close();
+  };
+
+  while (!max_frames || stats.frames_written < *max_frames) {
+    if (stop_requested && stop_requested->load()) break;
+    const Status status = source.read(frame);
+    if (status.code() == Status::Code::kEndOfStream || status.code() == Status::Code::kCancelled)
+      break;
+    if (status.code() == Status::Code::kCorruptFrame) {
+      spdlog::warn("skipping corrupt frame: {}", status.message());
+      ++stats.frames_corrupt;
+      continue;
+    }
+    if (!status.is_ok()) {
+      finish();
+      switch (status.code()) {
+        case Status::Code::kBadInput:
+          throw input_error(status.message());
+        case Status::Code::kDeviceLost:
+          throw device_error(status.message());
+        default:
+          throw Error(ExitCode::kFailure, status.message());
+      }
+    }
+
+    // The recording holds one calibration: the first frame may set it, later ones must match.
+    const bool consistent_size = frame.depth.width() == frame.intrinsics.width &&
+                                 frame.depth.height() == frame.intrinsics.height &&
+                                 !frame.depth.empty();
+    if (consistent_size && stats.frames_written == 0 &&
+        (!camera_written || !(frame.intrinsics == calibration) ||
+         frame.depth_scale != depth_scale)) {
+      calibration = frame.intrinsics;
+      depth_scale = frame.depth_scale;
+      write_camera_json(camera_path, calibration, depth_scale);
+      camera_written = true;
+    }
+    if (!consistent_size || !(frame.intrinsics == calibration) ||
+        frame.depth_scale != depth_scale) {
+      spdlog::warn("skipping frame {} of {}: its calibration differs from {}", frame.sequence,
+                   frame.origin, camera_path);
+      ++stats.frames_corrupt;
+      continue;
+    }
+
+    // File names follow the source's sequence; they must grow for the names to stay unique.
+    std::uint64_t sequence = frame.sequence;
+    if (last_sequence && sequence <= *last_sequence) sequence = *last_sequence + 1;
+    last_sequence = sequence;
+    std::snprintf(name, sizeof name, "depth/%06llu.png", static_cast<unsigned long long>(sequence));
+    png_path.assign(root).append("/").append(name);
+    try {
+      write_depth_png(png_path, frame.depth);
+    } catch (const Error&) {
+      fs::remove(png_path, ec);  // a partial PNG is never listed; do not leave it either
+      finish();
+      throw;
+    }
+    if (std::fprintf(list.get(), "%.6f %s\n", frame.timestamp_s, name) < 0 ||
+        std::fflush(list.get()) != 0)
+      write_failed(list_path);
+    if (frame.T_world_camera_gt) {
+      if (!ground_truth)
+        ground_truth = std::make_unique<TrajectoryWriter>(
+            gt_path, "ground truth of " + one_line(source.name()) +
+                         " (camera-to-world)\ntimestamp tx ty tz qx qy qz qw");
+      ground_truth->write({frame.timestamp_s, *frame.T_world_camera_gt});
+    }
+    ++stats.frames_written;
+  }
+  finish();
+  if (!camera_written)
+    throw input_error(source.name() + ": no frame with a valid calibration to write " +
+                      camera_path);
+  return stats;
+}
+
+}  // namespace aoscan
