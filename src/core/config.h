@@ -86,7 +86,9 @@ struct AoConfig {
   double grid_extent_m = 4.0; ///< MVAO grid: cell size = grid_extent_m / grid_resolution
   AoIntegration integration = AoIntegration::kMvao;
   AoInput input = AoInput::kRaycast;
-  AoEstimator estimator = AoEstimator::kObscurance;  ///< SSAO estimator (measured best default)
+  /// SSAO estimator; alchemy correlates best with the ray-traced Eq. 1 reference (tests/ao/
+  /// ao_accuracy_test.cpp).
+  AoEstimator estimator = AoEstimator::kAlchemy;
   /// SSAO pixel stride: 1 evaluates every pixel; 2 evaluates one pixel per 2x2 block per frame
   /// (the block's pixel rotates with the frame index) and copies it to the block's other pixels
   /// with weight 0, so the MVAO grid only integrates evaluated pixels.
