@@ -128,6 +128,10 @@ struct TrackingConfig {
 enum class AoIntegration { kMvao, kMean, kLast };
 /// Which depth the SSAO runs on (contract key ao.input).
 enum class AoInput { kRaycast, kRaw };
+/// Per-sample SSAO estimator (see src/ao/ssao.h): paper 000 Eq. 3-5 as printed; obscurance form
+/// (only samples above the tangent plane occlude, weighted by elevation and 1 - rho); Alchemy
+/// (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice integral with rho).
+enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon };
 
 /// Screen-space AO and the multi-view AO grid (paper 000 Sec. 4 and 6).
 struct AoConfig {
@@ -140,6 +144,13 @@ struct AoConfig {
   double grid_extent_m = 4.0; ///< MVAO grid: cell size = grid_extent_m / grid_resolution
   AoIntegration integration = AoIntegration::kMvao;
   AoInput input = AoInput::kRaycast;
+  /// SSAO estimator; alchemy correlates best with the ray-traced Eq. 1 reference (tests/ao/
+  /// ao_accuracy_test.cpp).
+  AoEstimator estimator = AoEstimator::kAlchemy;
+  /// SSAO pixel stride: 1 evaluates every pixel; 2 evaluates one pixel per 2x2 block per frame
+  /// (the block's pixel rotates with the frame index) and copies it to the block's other pixels
+  /// with weight 0, so the MVAO grid only integrates evaluated pixels.
+  int ssao_stride_px = 2;
 
   template <class V>
   void visit(V& v) {
@@ -156,6 +167,12 @@ struct AoConfig {
               {"last", AoIntegration::kLast}});
     v.choice("input", input, "SSAO input: raycast of the model or raw filtered depth",
              {{"raycast", AoInput::kRaycast}, {"raw", AoInput::kRaw}});
+    v.choice("estimator", estimator,
+             "SSAO estimator: paper (Eq. 3-5 as printed), obscurance, alchemy, horizon",
+             {{"paper", AoEstimator::kPaper}, {"obscurance", AoEstimator::kObscurance},
+              {"alchemy", AoEstimator::kAlchemy}, {"horizon", AoEstimator::kHorizon}});
+    v.integer("ssao_stride_px", ssao_stride_px,
+              "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
   }
 };
 

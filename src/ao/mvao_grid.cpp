@@ -1,0 +1,229 @@
+/// @file mvao_grid.cpp
+/// @brief Sparse Morton-keyed MVAO grid: open addressing table, frame integration in the three
+/// modes, trilinear sampling and nearest-observed-cell search.
+#include "ao/mvao_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Geometry>
+
+namespace aoscan {
+namespace {
+
+constexpr std::size_t kInitialSlots = 1024;
+
+/// splitmix64 finalizer: spreads Morton codes over the table.
+std::uint64_t mix(std::uint64_t v) {
+  v ^= v >> 30;
+  v *= 0xbf58476d1ce4e5b9ull;
+  v ^= v >> 27;
+  v *= 0x94d049bb133111ebull;
+  v ^= v >> 31;
+  return v;
+}
+
+/// floor(v) as a cell coordinate, or nullopt outside the Morton range / not finite.
+std::optional<std::int32_t> to_cell(double v) {
+  const double f = std::floor(v);
+  if (!(f >= kMortonMin && f <= kMortonMax)) return std::nullopt;
+  return static_cast<std::int32_t>(f);
+}
+
+}  // namespace
+
+MvaoGrid::MvaoGrid(const AoConfig& config)
+    : cell_size_m_(config.grid_extent_m / config.grid_resolution), mode_(config.integration) {
+  if (!(cell_size_m_ > 0.0) || !std::isfinite(cell_size_m_))
+    throw usage_error("ao.grid_extent_m / ao.grid_resolution must give a positive cell size");
+  clear();
+}
+
+void MvaoGrid::clear() {
+  keys_.assign(kInitialSlots, kEmpty);
+  cells_.assign(kInitialSlots, MvaoCell{});
+  size_ = 0;
+  frames_ = 0;
+  points_integrated_ = points_out_of_range_ = points_invalid_ = 0;
+}
+
+std::size_t MvaoGrid::memory_bytes() const {
+  return keys_.capacity() * sizeof(std::uint64_t) + cells_.capacity() * sizeof(MvaoCell);
+}
+
+std::size_t MvaoGrid::slot_of(std::uint64_t code) const {
+  const std::size_t mask = keys_.size() - 1;
+  std::size_t i = mix(code) & mask;
+  while (keys_[i] != code && keys_[i] != kEmpty) i = (i + 1) & mask;
+  return i;
+}
+
+void MvaoGrid::grow() {
+  std::vector<std::uint64_t> old_keys(keys_.size() * 2, kEmpty);
+  std::vector<MvaoCell> old_cells(cells_.size() * 2);
+  old_keys.swap(keys_);
+  old_cells.swap(cells_);
+  for (std::size_t i = 0; i < old_keys.size(); ++i) {
+    if (old_keys[i] == kEmpty) continue;
+    const std::size_t s = slot_of(old_keys[i]);
+    keys_[s] = old_keys[i];
+    cells_[s] = old_cells[i];
+  }
+}
+
+MvaoCell& MvaoGrid::insert(std::uint64_t code) {
+  std::size_t s = slot_of(code);
+  if (keys_[s] == code) return cells_[s];
+  if (2 * (size_ + 1) > keys_.size()) {
+    grow();
+    s = slot_of(code);
+  }
+  keys_[s] = code;
+  cells_[s] = MvaoCell{};
+  ++size_;
+  return cells_[s];
+}
+
+Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
+                           const PointMaps& maps, const Pose& T_world_camera) {
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  if (ao.width() != w || ao.height() != h || weights.width() != w || weights.height() != h)
+    return Status::internal("MvaoGrid::integrate: AO, weight and vertex images differ in size");
+  ++frames_;
+  const std::uint32_t stamp = static_cast<std::uint32_t>(frames_);
+  const Eigen::Matrix3d R = T_world_camera.rotation();
+  const Eigen::Vector3d t = T_world_camera.translation();
+  const double inv_cell = 1.0 / cell_size_m_;
+  std::uint64_t last_code = kEmpty;
+  MvaoCell* last_cell = nullptr;
+  const float* ao_data = ao.data();
+  const float* w_data = weights.data();
+  const Eigen::Vector3f* verts = maps.vertices.data();
+  for (std::size_t i = 0, n = ao.size(); i < n; ++i) {
+    const float wi = w_data[i];
+    if (wi == 0.0f) continue;
+    const float ai = ao_data[i];
+    const Eigen::Vector3f& v = verts[i];
+    if (!(wi > 0.0f) || !std::isfinite(wi) || !std::isfinite(ai) || !v.allFinite()) {
+      ++points_invalid_;
+      continue;
+    }
+    const Eigen::Vector3d p = (R * v.cast<double>() + t) * inv_cell;
+    if (!p.allFinite()) {
+      ++points_invalid_;
+      continue;
+    }
+    const auto cx = to_cell(p.x()), cy = to_cell(p.y()), cz = to_cell(p.z());
+    if (!cx || !cy || !cz) {
+      ++points_out_of_range_;
+      continue;
+    }
+    const std::uint64_t code = *morton_encode(*cx, *cy, *cz);
+    if (code != last_code) {
+      last_cell = &insert(code);  // pointers stay valid until the next insert
+      last_code = code;
+    }
+    MvaoCell& cell = *last_cell;
+    if (cell.last_frame != stamp) {
+      if (mode_ == AoIntegration::kLast) cell.ao_weight_sum = cell.weight_sum = 0.0f;
+      cell.last_frame = stamp;
+    }
+    const float weight = mode_ == AoIntegration::kMvao ? wi : 1.0f;
+    cell.ao_weight_sum += weight * std::min(std::max(ai, 0.0f), 1.0f);
+    cell.weight_sum += weight;
+    ++points_integrated_;
+  }
+  return Status::ok();
+}
+
+std::optional<CellIndex> MvaoGrid::cell_of(const Eigen::Vector3d& p_world) const {
+  const Eigen::Vector3d p = p_world / cell_size_m_;
+  const auto cx = to_cell(p.x()), cy = to_cell(p.y()), cz = to_cell(p.z());
+  if (!cx || !cy || !cz) return std::nullopt;
+  return CellIndex{*cx, *cy, *cz};
+}
+
+const MvaoCell* MvaoGrid::find(const CellIndex& c) const {
+  const auto code = morton_encode(c[0], c[1], c[2]);
+  if (!code) return nullptr;
+  const std::size_t s = slot_of(*code);
+  if (keys_[s] != *code || !(cells_[s].weight_sum > 0.0f)) return nullptr;
+  return &cells_[s];
+}
+
+std::optional<float> MvaoGrid::cell_ao(const CellIndex& cell) const {
+  const MvaoCell* c = find(cell);
+  if (!c) return std::nullopt;
+  return c->ao();
+}
+
+Eigen::Vector3d MvaoGrid::cell_centre(const CellIndex& c) const {
+  return (Eigen::Vector3d(c[0], c[1], c[2]) + Eigen::Vector3d::Constant(0.5)) * cell_size_m_;
+}
+
+std::optional<float> MvaoGrid::sample(const Eigen::Vector3d& p_world) const {
+  const Eigen::Vector3d g = p_world / cell_size_m_ - Eigen::Vector3d::Constant(0.5);
+  if (!g.allFinite()) return std::nullopt;
+  const Eigen::Vector3d base = g.array().floor();
+  if ((base.array() < kMortonMin).any() || (base.array() > kMortonMax).any()) return std::nullopt;
+  const Eigen::Vector3d f = g - base;
+  double sum = 0.0, total = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
+    const double tw =
+        (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
+    if (!(tw > 0.0)) continue;
+    const std::int64_t cx = static_cast<std::int64_t>(base.x()) + dx;
+    const std::int64_t cy = static_cast<std::int64_t>(base.y()) + dy;
+    const std::int64_t cz = static_cast<std::int64_t>(base.z()) + dz;
+    if (cx > kMortonMax || cy > kMortonMax || cz > kMortonMax) continue;
+    const MvaoCell* c = find({static_cast<std::int32_t>(cx), static_cast<std::int32_t>(cy),
+                              static_cast<std::int32_t>(cz)});
+    if (!c) continue;
+    sum += tw * c->ao();
+    total += tw;
+  }
+  if (!(total > 0.0)) return std::nullopt;
+  return static_cast<float>(std::min(std::max(sum / total, 0.0), 1.0));
+}
+
+std::optional<float> MvaoGrid::nearest_observed(const Eigen::Vector3d& p_world,
+                                                int max_cells) const {
+  const auto home = cell_of(p_world);
+  if (!home || size_ == 0) return std::nullopt;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  std::optional<float> best;
+  // Shell r holds cells at Chebyshev distance r; a cell there is at least (r - 1) cells from p.
+  for (int r = 0; r <= std::max(max_cells, 0); ++r) {
+    const double min_dist = std::max(r - 1, 0) * cell_size_m_;
+    if (best && min_dist * min_dist > best_d2) break;
+    for (int dz = -r; dz <= r; ++dz)
+      for (int dy = -r; dy <= r; ++dy)
+        for (int dx = -r; dx <= r; ++dx) {
+          if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != r) continue;
+          const std::int64_t c[3] = {std::int64_t{(*home)[0]} + dx, std::int64_t{(*home)[1]} + dy,
+                                     std::int64_t{(*home)[2]} + dz};
+          if (!morton_in_range(static_cast<std::int32_t>(
+                                   std::clamp<std::int64_t>(c[0], kMortonMin - 1, kMortonMax + 1)),
+                               static_cast<std::int32_t>(
+                                   std::clamp<std::int64_t>(c[1], kMortonMin - 1, kMortonMax + 1)),
+                               static_cast<std::int32_t>(
+                                   std::clamp<std::int64_t>(c[2], kMortonMin - 1, kMortonMax + 1))))
+            continue;
+          const CellIndex ci{static_cast<std::int32_t>(c[0]), static_cast<std::int32_t>(c[1]),
+                             static_cast<std::int32_t>(c[2])};
+          const MvaoCell* cell = find(ci);
+          if (!cell) continue;
+          const double d2 = (cell_centre(ci) - p_world).squaredNorm();
+          if (d2 < best_d2) {
+            best_d2 = d2;
+            best = cell->ao();
+          }
+        }
+  }
+  return best;
+}
+
+}  // namespace aoscan

@@ -1,0 +1,117 @@
+/// @file mvao_grid.h
+/// @brief The sparse multi-view AO grid of paper 000 Sec. 6: per world cell {sum AO w, sum w},
+/// keyed by the cell's 64-bit Morton code, accumulated frame by frame.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ao/morton.h"
+#include "core/config.h"
+#include "core/image.h"
+#include "core/pose.h"
+#include "core/status.h"
+#include "fusion/point_maps.h"
+
+namespace aoscan {
+
+/// One observed grid cell.
+struct MvaoCell {
+  float ao_weight_sum = 0.0f;    ///< sum of AO * w
+  float weight_sum = 0.0f;       ///< sum of w (> 0 once observed)
+  std::uint32_t last_frame = 0;  ///< 1-based number of the last frame that touched the cell
+
+  float ao() const { return ao_weight_sum / weight_sum; }
+};
+
+/// Integer cell coordinates (cell (i, j, k) covers [i, i + 1) * cell_size_m along x, etc.).
+using CellIndex = std::array<std::int32_t, 3>;
+
+/// Sparse MVAO grid over the world frame (metres). Cells cover the signed Morton range
+/// [-2^20, 2^20 - 1] per axis, so the grid is not bounded by the first frame; memory grows only
+/// with observed cells (open addressing hash table keyed by Morton code, 24 bytes per slot, load
+/// factor <= 1/2). Not thread-safe: one writer (the mvao stage). Results are deterministic:
+/// pixels are accumulated serially in row-major order.
+class MvaoGrid {
+ public:
+  /// Cell size = config.grid_extent_m / config.grid_resolution; mode = config.integration. Throws
+  /// usage_error when the cell size is not a positive finite number.
+  explicit MvaoGrid(const AoConfig& config);
+
+  /// Accumulates one frame: every pixel with weight > 0 and a finite AO, weight and camera-frame
+  /// vertex (`maps.vertices`, metres) goes to the cell containing T_world_camera * vertex.
+  /// mvao: weight as given (w_d * w_n); mean: weight 1; last: weight 1, and every cell this frame
+  /// touches is reset before the frame accumulates into it. AO is clamped to [0, 1]. Pixels whose
+  /// cell is outside the Morton range are skipped and counted in points_out_of_range(); pixels
+  /// with NaN/inf values (or a negative weight) are skipped and counted in points_invalid().
+  /// Returns internal() (and changes nothing) when the image sizes differ.
+  Status integrate(const Image<float>& ao, const Image<float>& weights, const PointMaps& maps,
+                   const Pose& T_world_camera);
+
+  /// Cell containing world point `p_world` (metres), or nullopt when outside the Morton range or
+  /// not finite.
+  std::optional<CellIndex> cell_of(const Eigen::Vector3d& p_world) const;
+  /// The observed cell at `cell`, or nullptr.
+  const MvaoCell* find(const CellIndex& cell) const;
+  /// AO of an observed cell, or nullopt.
+  std::optional<float> cell_ao(const CellIndex& cell) const;
+  /// World position of a cell's centre (metres).
+  Eigen::Vector3d cell_centre(const CellIndex& cell) const;
+
+  /// Trilinear AO at `p_world` from the 8 cell centres around it, renormalised over the observed
+  /// ones; nullopt when none of them with a non-zero trilinear weight was observed.
+  std::optional<float> sample(const Eigen::Vector3d& p_world) const;
+  /// AO of the observed cell whose centre is nearest to `p_world` (Euclidean), searching cells up
+  /// to `max_cells` away (Chebyshev) from the cell containing the point; nullopt if none. Ties go
+  /// to the cell met first in z, y, x order.
+  std::optional<float> nearest_observed(const Eigen::Vector3d& p_world, int max_cells) const;
+
+  /// Calls f(CellIndex, const MvaoCell&) for every observed cell (table order).
+  template <class F>
+  void for_each_cell(F&& f) const;
+
+  void clear();
+
+  double cell_size_m() const { return cell_size_m_; }
+  AoIntegration integration() const { return mode_; }
+  std::size_t cell_count() const { return size_; }
+  /// Bytes held by the cell table.
+  std::size_t memory_bytes() const;
+  std::uint64_t frames_integrated() const { return frames_; }
+  std::uint64_t points_integrated() const { return points_integrated_; }
+  std::uint64_t points_out_of_range() const { return points_out_of_range_; }
+  std::uint64_t points_invalid() const { return points_invalid_; }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // never a Morton code (bit 63)
+  std::size_t slot_of(std::uint64_t code) const;  // slot holding code, or the empty slot for it
+  MvaoCell& insert(std::uint64_t code);
+  void grow();
+
+  double cell_size_m_;
+  AoIntegration mode_;
+  std::vector<std::uint64_t> keys_;
+  std::vector<MvaoCell> cells_;
+  std::size_t size_ = 0;
+  std::uint64_t frames_ = 0;
+  std::uint64_t points_integrated_ = 0;
+  std::uint64_t points_out_of_range_ = 0;
+  std::uint64_t points_invalid_ = 0;
+};
+
+template <class F>
+void MvaoGrid::for_each_cell(F&& f) const {
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    if (keys_[i] == kEmpty) continue;
+    CellIndex c;
+    morton_decode(keys_[i], c[0], c[1], c[2]);
+    f(static_cast<const CellIndex&>(c), cells_[i]);
+  }
+}
+
+}  // namespace aoscan

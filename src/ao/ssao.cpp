@@ -1,0 +1,435 @@
+/// @file ssao.cpp
+/// @brief Screen-space ambient obscurance estimators (paper, obscurance, Alchemy, horizon) with a
+/// parallel fast path and a plain serial reference, and the Eq. 10-11 view weights.
+#include "ao/ssao.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <Eigen/Geometry>
+
+namespace aoscan {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kHalfPiF = 1.57079632679490f;
+/// Largest disk radius in pixels (points nearer than ~0.25 m would otherwise sample whole images).
+constexpr float kMaxRadiusPx = 160.0f;
+/// Alchemy: epsilon of the 1 / (d^2 + eps r_s^2) term, relative to r_s^2.
+constexpr float kAlchemyEpsilon = 0.01f;
+/// Horizon estimator: steps per slice side.
+constexpr int kHorizonSteps = 4;
+
+/// 4x4 Bayer order: rotation rank of each pixel class, and a second permutation for the radial
+/// jitter (the transposed tile), so neighbouring pixels differ in both.
+constexpr int kBayer[kSsaoPatternClasses] = {0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5};
+constexpr int kBayerT[kSsaoPatternClasses] = {0, 12, 3, 15, 8, 4, 11, 7, 2, 14, 1, 13, 10, 6, 9, 5};
+
+double fract(double v) {
+  return v - std::floor(v);
+}
+
+float smoothstep01(float d, float t_max) {
+  const float u = std::min(std::max(d / t_max, 0.0f), 1.0f);
+  return u * u * (3.0f - 2.0f * u);
+}
+
+int pattern_class(int x, int y) {
+  return (x & 3) + kSsaoPatternTile * (y & 3);
+}
+
+/// Nearest pixel of an offset in units of the disk radius.
+int offset_px(int centre, float offset, float radius_px) {
+  return centre + static_cast<int>(std::floor(offset * radius_px + 0.5f));
+}
+
+/// Order in which the pixels of a 2x2 block are tried at stride 2 (rotating with the frame).
+constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
+
+/// Everything a per-pixel evaluation needs, fixed for the frame.
+struct FrameSetup {
+  const PointMaps* maps;
+  const SsaoPattern* pattern;
+  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Fast path: estimator-specialised loops over precomputed per-class offsets.
+
+template <AoEstimator E>
+float fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                    const Eigen::Vector3f& n) {
+  const PointMaps& maps = *s.maps;
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  const Eigen::Vector3f* verts = maps.vertices.data();
+  const int count = s.pattern->samples;
+  const Eigen::Vector2f* offs = s.pattern->offsets.data() + pattern_class(x, y) * count;
+  const float rx = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
+  const float ry = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
+  const float r2eps = kAlchemyEpsilon * s.radius_m * s.radius_m;
+  float sum = 0.0f;
+  int counted = 0;
+  for (int k = 0; k < count; ++k) {
+    const int sx = offset_px(x, offs[k].x(), rx);
+    const int sy = offset_px(y, offs[k].y(), ry);
+    if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
+    const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
+    if (!(q.z() > 0.0f) || !q.allFinite()) continue;
+    const Eigen::Vector3f v = q - p;
+    const float d2 = v.squaredNorm();
+    if (!(d2 > 0.0f)) continue;
+    const float nv = n.dot(v);
+    ++counted;
+    if constexpr (E == AoEstimator::kAlchemy) {
+      sum += s.radius_m * std::max(nv, 0.0f) / (d2 + r2eps);
+    } else {
+      const float d = std::sqrt(d2);
+      const float rho = smoothstep01(d, s.t_max_m);
+      if constexpr (E == AoEstimator::kPaper) {
+        sum += rho * (1.0f - std::max(nv / d, 0.0f));
+      } else {
+        sum += std::max(nv / d, 0.0f) * (1.0f - rho);
+      }
+    }
+  }
+  if (counted == 0) return 1.0f;
+  const float mean = sum / static_cast<float>(counted);
+  if constexpr (E == AoEstimator::kPaper) return std::min(std::max(mean, 0.0f), 1.0f);
+  return std::min(std::max(1.0f - mean, 0.0f), 1.0f);
+}
+
+/// GTAO arc integral of one side with horizon angle `h` about projected-normal angle `n`.
+float integrate_arc(float h, float n, float cos_n, float sin_n) {
+  return 0.25f * (cos_n + 2.0f * h * sin_n - std::cos(2.0f * h - n));
+}
+
+float fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                      const Eigen::Vector3f& n) {
+  const PointMaps& maps = *s.maps;
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  const Eigen::Vector3f* verts = maps.vertices.data();
+  const SsaoPattern& pat = *s.pattern;
+  const int cls = pattern_class(x, y);
+  const Eigen::Vector2f* offs = pat.offsets.data() + cls * pat.samples;
+  const Eigen::Vector2f* dirs = pat.slice_dirs.data() + cls * pat.slices;
+  const float rx = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
+  const float ry = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
+  const Eigen::Vector3f view = -p.normalized();
+  float visibility = 0.0f;
+  for (int sl = 0; sl < pat.slices; ++sl) {
+    const Eigen::Vector3f dir(dirs[sl].x(), dirs[sl].y(), 0.0f);
+    const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
+    const Eigen::Vector3f axis = ortho.cross(view).normalized();
+    const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
+    const float proj_len = proj_n.norm();
+    if (!(proj_len > 1e-6f)) continue;
+    const float cos_n = std::min(std::max(proj_n.dot(view) / proj_len, 0.0f), 1.0f);
+    const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+    float horizon_cos[2] = {std::cos(n_ang + kHalfPiF), std::cos(n_ang - kHalfPiF)};
+    const float low_cos[2] = {horizon_cos[0], horizon_cos[1]};
+    for (int side = 0; side < 2; ++side) {
+      const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
+      for (int k = 0; k < pat.steps; ++k) {
+        const int sx = offset_px(x, so[k].x(), rx);
+        const int sy = offset_px(y, so[k].y(), ry);
+        if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
+        const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
+        if (!(q.z() > 0.0f) || !q.allFinite()) continue;
+        const Eigen::Vector3f v = q - p;
+        const float d2 = v.squaredNorm();
+        if (!(d2 > 0.0f)) continue;
+        const float d = std::sqrt(d2);
+        const float keep = 1.0f - smoothstep01(d, s.t_max_m);
+        const float shc = low_cos[side] + (v.dot(view) / d - low_cos[side]) * keep;
+        horizon_cos[side] = std::max(horizon_cos[side], shc);
+      }
+    }
+    float h0 = std::acos(std::min(horizon_cos[0], 1.0f));
+    float h1 = -std::acos(std::min(horizon_cos[1], 1.0f));
+    h0 = n_ang + std::min(h0 - n_ang, kHalfPiF);
+    h1 = n_ang + std::max(h1 - n_ang, -kHalfPiF);
+    const float sin_n = std::sin(n_ang);
+    visibility += proj_len *
+                  (integrate_arc(h0, n_ang, cos_n, sin_n) + integrate_arc(h1, n_ang, cos_n, sin_n));
+  }
+  return std::min(std::max(visibility / static_cast<float>(pat.slices), 0.0f), 1.0f);
+}
+
+using PixelFn = float (*)(const FrameSetup&, int, int, const Eigen::Vector3f&,
+                          const Eigen::Vector3f&);
+
+PixelFn fast_kernel(AoEstimator e) {
+  switch (e) {
+    case AoEstimator::kPaper:
+      return &fast_point_ao<AoEstimator::kPaper>;
+    case AoEstimator::kObscurance:
+      return &fast_point_ao<AoEstimator::kObscurance>;
+    case AoEstimator::kAlchemy:
+      return &fast_point_ao<AoEstimator::kAlchemy>;
+    case AoEstimator::kHorizon:
+      break;
+  }
+  return &fast_horizon_ao;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reference: one generic per-pixel function written from the formulas.
+
+float reference_pixel_ao(const FrameSetup& s, int x, int y) {
+  const PointMaps& maps = *s.maps;
+  const SsaoPattern& pat = *s.pattern;
+  const Eigen::Vector3f p = maps.vertices(x, y);
+  const Eigen::Vector3f n = maps.normals(x, y);
+  const float radius_x = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
+  const float radius_y = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
+  const int cls = pattern_class(x, y);
+
+  // Returns the sample's vertex, or false when the sample is not counted.
+  auto fetch = [&](const Eigen::Vector2f& o, Eigen::Vector3f& q) {
+    const int sx = offset_px(x, o.x(), radius_x);
+    const int sy = offset_px(y, o.y(), radius_y);
+    if (!maps.vertices.contains(sx, sy) || (sx == x && sy == y)) return false;
+    q = maps.vertices(sx, sy);
+    if (!(q.z() > 0.0f) || !q.allFinite()) return false;
+    return (q - p).squaredNorm() > 0.0f;
+  };
+
+  if (pat.estimator == AoEstimator::kHorizon) {
+    const Eigen::Vector3f view = -p.normalized();
+    float visibility = 0.0f;
+    for (int sl = 0; sl < pat.slices; ++sl) {
+      const Eigen::Vector2f d2 = pat.slice_dirs[cls * pat.slices + sl];
+      const Eigen::Vector3f dir(d2.x(), d2.y(), 0.0f);
+      const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
+      const Eigen::Vector3f axis = ortho.cross(view).normalized();
+      const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
+      const float proj_len = proj_n.norm();
+      if (!(proj_len > 1e-6f)) continue;
+      const float cos_n = std::clamp(proj_n.dot(view) / proj_len, 0.0f, 1.0f);
+      const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+      float h[2];
+      for (int side = 0; side < 2; ++side) {
+        const float low = std::cos(side == 0 ? n_ang + kHalfPiF : n_ang - kHalfPiF);
+        float best = low;
+        for (int k = 0; k < pat.steps; ++k) {
+          Eigen::Vector3f q;
+          if (!fetch(pat.offsets[cls * pat.samples + (sl * 2 + side) * pat.steps + k], q)) continue;
+          const float dist = (q - p).norm();
+          const float rho = smoothstep01(dist, s.t_max_m);
+          best = std::max(best, low + ((q - p).dot(view) / dist - low) * (1.0f - rho));
+        }
+        h[side] = std::acos(std::min(best, 1.0f));
+      }
+      const float h0 = n_ang + std::min(h[0] - n_ang, kHalfPiF);
+      const float h1 = n_ang + std::max(-h[1] - n_ang, -kHalfPiF);
+      const float arc0 =
+          0.25f * (cos_n + 2.0f * h0 * std::sin(n_ang) - std::cos(2.0f * h0 - n_ang));
+      const float arc1 =
+          0.25f * (cos_n + 2.0f * h1 * std::sin(n_ang) - std::cos(2.0f * h1 - n_ang));
+      visibility += proj_len * (arc0 + arc1);
+    }
+    return std::clamp(visibility / static_cast<float>(pat.slices), 0.0f, 1.0f);
+  }
+
+  float sum = 0.0f;
+  int counted = 0;
+  for (int k = 0; k < pat.samples; ++k) {
+    Eigen::Vector3f q;
+    if (!fetch(pat.offsets[cls * pat.samples + k], q)) continue;
+    const Eigen::Vector3f v = q - p;
+    const float dist = v.norm();
+    const float rho = smoothstep01(dist, s.t_max_m);
+    const float c = n.dot(v) / dist;  // cosine of the sample's elevation
+    ++counted;
+    switch (pat.estimator) {
+      case AoEstimator::kPaper:  // Eq. 3-5
+        sum += rho * (1.0f - std::max(c, 0.0f));
+        break;
+      case AoEstimator::kObscurance:
+        sum += std::max(c, 0.0f) * (1.0f - rho);
+        break;
+      case AoEstimator::kAlchemy:
+        sum += s.radius_m * std::max(n.dot(v), 0.0f) /
+               (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
+        break;
+      case AoEstimator::kHorizon:
+        break;
+    }
+  }
+  if (counted == 0) return 1.0f;
+  const float mean = sum / static_cast<float>(counted);
+  return std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f);
+}
+
+FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const AoConfig& config) {
+  return FrameSetup{&maps,
+                    &pattern,
+                    static_cast<float>(maps.intrinsics.fx),
+                    static_cast<float>(maps.intrinsics.fy),
+                    static_cast<float>(config.radius_m),
+                    static_cast<float>(config.t_max_m),
+                    static_cast<float>(config.d_min_m),
+                    static_cast<float>(config.d_max_m)};
+}
+
+}  // namespace
+
+SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index) {
+  SsaoPattern pat;
+  pat.estimator = config.estimator;
+  // Frame rotation (golden ratio) and radial jitter (plastic number) sequences.
+  const double frame_turn = fract(static_cast<double>(frame_index % 1000003) * 0.6180339887498949);
+  const double frame_jitter =
+      fract(0.5 + static_cast<double>(frame_index % 1000003) * 0.7548776662466927);
+  const int n = std::max(config.samples, 1);
+  if (config.estimator == AoEstimator::kHorizon) {
+    pat.steps = kHorizonSteps;
+    pat.slices = std::max(1, n / (2 * kHorizonSteps));
+    pat.samples = pat.slices * 2 * pat.steps;
+  } else {
+    pat.samples = n;
+  }
+  pat.offsets.resize(static_cast<std::size_t>(kSsaoPatternClasses) * pat.samples);
+  pat.slice_dirs.resize(static_cast<std::size_t>(kSsaoPatternClasses) * pat.slices);
+  const double golden_angle = kPi * (3.0 - std::sqrt(5.0));
+  for (int c = 0; c < kSsaoPatternClasses; ++c) {
+    const double turn = kBayer[c] / 16.0 + frame_turn;
+    const double jitter = fract(kBayerT[c] / 16.0 + frame_jitter);
+    Eigen::Vector2f* offs = pat.offsets.data() + c * pat.samples;
+    if (config.estimator == AoEstimator::kHorizon) {
+      for (int sl = 0; sl < pat.slices; ++sl) {
+        const double phi = kPi * (sl + fract(turn)) / pat.slices;
+        const Eigen::Vector2d dir(std::cos(phi), std::sin(phi));
+        pat.slice_dirs[c * pat.slices + sl] = dir.cast<float>();
+        for (int side = 0; side < 2; ++side)
+          for (int k = 0; k < pat.steps; ++k) {
+            const double t = (k + jitter) / pat.steps;
+            const double r = std::max(t * t, 1e-3);
+            offs[(sl * 2 + side) * pat.steps + k] = (dir * (side == 0 ? r : -r)).cast<float>();
+          }
+      }
+    } else {
+      for (int k = 0; k < pat.samples; ++k) {
+        const double r = std::sqrt((k + jitter) / pat.samples);
+        const double phi = k * golden_angle + 2.0 * kPi * turn;
+        offs[k] = Eigen::Vector2d(r * std::cos(phi), r * std::sin(phi)).cast<float>();
+      }
+    }
+  }
+  return pat;
+}
+
+float view_weight(const Eigen::Vector3f& p_camera, const Eigen::Vector3f& n_camera, float d_min_m,
+                  float d_max_m) {
+  const float dist = p_camera.norm();
+  if (!(dist > 0.0f) || !std::isfinite(dist)) return 0.0f;
+  const float w_d = std::max(1.0f - std::max(dist - d_min_m, 0.0f) / d_max_m, 0.1f);
+  const float w_n = std::max(-n_camera.dot(p_camera) / dist, 0.0f);
+  const float w = w_d * w_n;
+  return std::isfinite(w) ? w : 0.0f;
+}
+
+bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& normal) {
+  return vertex.z() > 0.0f && vertex.allFinite() && normal.allFinite() &&
+         normal.squaredNorm() > 0.0f;
+}
+
+void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
+                  Image<float>& ao, Image<float>& weight) {
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  ao.resize(w, h, 0.0f);
+  weight.resize(w, h, 0.0f);
+  if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
+  const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
+  const FrameSetup setup = make_setup(maps, pattern, config);
+  const PixelFn kernel = fast_kernel(config.estimator);
+  const Eigen::Vector3f* verts = maps.vertices.data();
+  const Eigen::Vector3f* norms = maps.normals.data();
+
+  if (config.ssao_stride_px <= 1) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+      for (int y = rows.begin(); y != rows.end(); ++y) {
+        float* ao_row = ao.row(y);
+        float* w_row = weight.row(y);
+        const std::size_t base = static_cast<std::size_t>(y) * w;
+        for (int x = 0; x < w; ++x) {
+          const Eigen::Vector3f& p = verts[base + x];
+          const Eigen::Vector3f& n = norms[base + x];
+          if (!ssao_pixel_valid(p, n)) continue;
+          ao_row[x] = kernel(setup, x, y, p, n);
+          w_row[x] = view_weight(p, n, setup.d_min_m, setup.d_max_m);
+        }
+      }
+    });
+    return;
+  }
+
+  const int first = static_cast<int>(frame_index % 4);
+  const int block_rows = (h + 1) / 2;
+  tbb::parallel_for(tbb::blocked_range<int>(0, block_rows), [&](const tbb::blocked_range<int>& br) {
+    for (int by = br.begin(); by != br.end(); ++by) {
+      for (int bx = 0; bx < (w + 1) / 2; ++bx) {
+        int ex = -1, ey = -1;
+        for (int i = 0; i < 4 && ex < 0; ++i) {
+          const int x = 2 * bx + kBlockOrder[(first + i) & 3][0];
+          const int y = 2 * by + kBlockOrder[(first + i) & 3][1];
+          if (x >= w || y >= h) continue;
+          const std::size_t idx = static_cast<std::size_t>(y) * w + x;
+          if (ssao_pixel_valid(verts[idx], norms[idx])) ex = x, ey = y;
+        }
+        if (ex < 0) continue;
+        const std::size_t eidx = static_cast<std::size_t>(ey) * w + ex;
+        const float value = kernel(setup, ex, ey, verts[eidx], norms[eidx]);
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const int x = 2 * bx + dx, y = 2 * by + dy;
+            if (x >= w || y >= h) continue;
+            const std::size_t idx = static_cast<std::size_t>(y) * w + x;
+            if (ssao_pixel_valid(verts[idx], norms[idx])) ao.data()[idx] = value;
+          }
+        weight.data()[eidx] = view_weight(verts[eidx], norms[eidx], setup.d_min_m, setup.d_max_m);
+      }
+    }
+  });
+}
+
+void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
+                            std::uint64_t frame_index, Image<float>& ao, Image<float>& weight) {
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  ao.resize(w, h, 0.0f);
+  weight.resize(w, h, 0.0f);
+  if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
+  const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
+  const FrameSetup setup = make_setup(maps, pattern, config);
+  auto valid = [&](int x, int y) {
+    return maps.vertices.contains(x, y) &&
+           ssao_pixel_valid(maps.vertices(x, y), maps.normals(x, y));
+  };
+  const int stride = config.ssao_stride_px <= 1 ? 1 : 2;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (!valid(x, y)) continue;
+      // The pixel of this pixel's block that is evaluated this frame.
+      int ex = x, ey = y;
+      if (stride == 2) {
+        for (int i = 3; i >= 0; --i) {
+          const int* o = kBlockOrder[(frame_index % 4 + i) & 3];
+          if (valid(x - x % 2 + o[0], y - y % 2 + o[1]))
+            ex = x - x % 2 + o[0], ey = y - y % 2 + o[1];
+        }
+      }
+      ao(x, y) = reference_pixel_ao(setup, ex, ey);
+      if (ex == x && ey == y)
+        weight(x, y) =
+            view_weight(maps.vertices(x, y), maps.normals(x, y), setup.d_min_m, setup.d_max_m);
+    }
+  }
+}
+
+}  // namespace aoscan

@@ -1,0 +1,81 @@
+/// @file ssao.h
+/// @brief Screen-space ambient obscurance on camera-frame point maps (paper 000 Sec. 4) and the
+/// per-pixel view weights of the MVAO integration (paper 000 Eq. 10-11).
+///
+/// Sampling: every evaluated pixel p (camera frame, metres) gets a screen-space disk of radius
+/// radius_px = fx * r_s / z (the sphere of radius r_s moved onto the optical axis at depth z,
+/// paper's simplification). The disk is sampled by a fixed pattern (SsaoPattern): for the point
+/// estimators a Vogel spiral of N points, for the horizon estimator N / 8 slices of 4 steps per
+/// side; a 4x4 interleaved set of 16 rotations picks the rotation of each pixel, and the whole
+/// pattern is rotated and radially jittered by the frame index so that successive frames sample
+/// new directions (the MVAO grid averages them). A sample is the vertex at the nearest pixel;
+/// samples outside the image, at invalid pixels or on the centre pixel are not counted.
+///
+/// Estimators (v = p_i - p, d = |v|, c = n.v / d, rho = smoothstep(0, t_max, d)):
+/// - paper:      AO = mean(rho * (1 - max(c, 0)))           (Eq. 3-5 as printed)
+/// - obscurance: AO = 1 - mean(max(c, 0) * (1 - rho))
+/// - alchemy:    AO = max(0, 1 - mean(r_s * max(n.v, 0) / (d^2 + eps r_s^2)))  (McGuire 2011)
+/// - horizon:    per slice, the highest horizon on each side (its cosine lowered toward the
+///               tangent plane by rho, as XeGTAO's falloff), then the GTAO cosine-weighted arc
+///               integral, averaged over slices.
+/// AO is in [0, 1] (1 = open). Invalid pixels (zero, NaN or inf vertex or normal, z <= 0) get AO 0
+/// and weight 0; pixels without any counted sample get AO 1.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/config.h"
+#include "core/image.h"
+#include "fusion/point_maps.h"
+
+namespace aoscan {
+
+/// Number of per-pixel rotations of the interleaved pattern (a 4x4 tile).
+inline constexpr int kSsaoPatternTile = 4;
+inline constexpr int kSsaoPatternClasses = kSsaoPatternTile * kSsaoPatternTile;
+
+/// The sample offsets of one frame, in units of the disk radius, for each of the 16 pixel classes
+/// (class = (x & 3) + 4 (y & 3)). Built once per frame by make_ssao_pattern(); plain data.
+struct SsaoPattern {
+  AoEstimator estimator = AoEstimator::kObscurance;
+  int samples = 0;  ///< offsets per class
+  /// Horizon estimator: slices per pixel and steps per slice side; samples = 2 slices steps,
+  /// ordered slice-major, then side (+, -), then step.
+  int slices = 0;
+  int steps = 0;
+  std::vector<Eigen::Vector2f> offsets;     ///< kSsaoPatternClasses * samples, unit disk
+  std::vector<Eigen::Vector2f> slice_dirs;  ///< horizon: kSsaoPatternClasses * slices, unit
+};
+
+/// The deterministic sample pattern of frame `frame_index` for `config.samples` and
+/// `config.estimator` (the horizon estimator rounds the sample count to a multiple of 8, at least
+/// 8).
+SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index);
+
+/// Eq. 10-11 weight of a camera-frame point `p_camera` (metres) with unit normal `n_camera`:
+/// w_d * w_n with w_d = max(1 - max(|p| - d_min, 0) / d_max, 0.1) (|p| = distance to the camera
+/// centre, as printed) and w_n = max(n . l, 0), l = -p / |p| the direction to the camera.
+float view_weight(const Eigen::Vector3f& p_camera, const Eigen::Vector3f& n_camera, float d_min_m,
+                  float d_max_m);
+
+/// True when a point-map pixel can be used: finite vertex with z > 0 and a finite, non-zero normal.
+bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& normal);
+
+/// SSAO of `maps` (camera frame) for frame `frame_index`: fills `ao` (in [0, 1], 1 = open) and
+/// `weight` (Eq. 10-11, 0 where invalid or not evaluated) at the maps' resolution, reusing their
+/// buffers. With config.ssao_stride_px = 2, one pixel per 2x2 block is evaluated (the first valid
+/// one in an order that rotates with the frame) and its AO is copied to the block's other valid
+/// pixels with weight 0. Rows run in parallel through TBB; the result is bit-identical for any
+/// thread count.
+void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
+                  Image<float>& ao, Image<float>& weight);
+
+/// Plain serial per-pixel implementation of compute_ssao() (same contract), written directly from
+/// the formulas; the fast version matches it within 1e-5.
+void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
+                            std::uint64_t frame_index, Image<float>& ao, Image<float>& weight);
+
+}  // namespace aoscan

@@ -1,0 +1,66 @@
+/// @file mesh_ao_test.cpp
+/// @brief Tests for src/ao/mesh_ao.h: trilinear per-vertex AO, nearest-cell fallback and its
+/// count, the empty grid, non-finite vertices.
+#include "ao/mesh_ao.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace aoscan {
+namespace {
+
+/// A grid with cell size 0.25 m holding cell (0,0,0) = 0.2 and cell (8,0,0) = 0.8.
+MvaoGrid two_cell_grid() {
+  AoConfig c;
+  c.grid_extent_m = 1.0;
+  c.grid_resolution = 4;
+  c.integration = AoIntegration::kMean;
+  MvaoGrid grid(c);
+  Image<float> ao(2, 1), w(2, 1, 1.0f);
+  ao(0, 0) = 0.2f;
+  ao(1, 0) = 0.8f;
+  PointMaps maps;
+  maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
+  maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+  maps.vertices(0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
+  maps.vertices(1, 0) = Eigen::Vector3f(2.1f, 0.1f, 0.1f);
+  grid.integrate(ao, w, maps, Pose::identity());
+  return grid;
+}
+
+TEST(MeshAo, SamplesTheGridAndFallsBackToTheNearestCell) {
+  const MvaoGrid grid = two_cell_grid();
+  TriangleMesh mesh;
+  mesh.vertices = {{0.125f, 0.125f, 0.125f},  // centre of cell 0
+                   {2.2f, 0.1f, 0.15f},       // inside cell 8's neighbourhood
+                   {0.9f, 0.125f, 0.125f},    // unobserved; nearest centre is cell 0 (0.775 m)
+                   {1.5f, 0.125f, 0.125f},    // unobserved; nearest centre is cell 8 (0.625 m)
+                   {40.0f, -30.0f, 10.0f},    // far away: nearest is cell 8
+                   {std::nanf(""), 0.0f, 0.0f}};
+  mesh.faces = {{0, 1, 2}, {3, 4, 5}};
+  EXPECT_EQ(apply_grid_ao(grid, mesh), 4u);
+  ASSERT_EQ(mesh.quality.size(), mesh.vertices.size());
+  EXPECT_FLOAT_EQ(mesh.quality[0], 0.2f);
+  EXPECT_FLOAT_EQ(mesh.quality[1], 0.8f);
+  EXPECT_FLOAT_EQ(mesh.quality[2], 0.2f);
+  EXPECT_FLOAT_EQ(mesh.quality[3], 0.8f);
+  EXPECT_FLOAT_EQ(mesh.quality[4], 0.8f);
+  EXPECT_FLOAT_EQ(mesh.quality[5], 1.0f);
+}
+
+TEST(MeshAo, EmptyGridGivesOpenVertices) {
+  AoConfig c;
+  const MvaoGrid grid(c);
+  TriangleMesh mesh;
+  mesh.vertices = {{0.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f}};
+  mesh.quality = {0.3f};  // stale values are replaced
+  EXPECT_EQ(apply_grid_ao(grid, mesh), 3u);
+  EXPECT_EQ(mesh.quality, std::vector<float>(3, 1.0f));
+  TriangleMesh none;
+  EXPECT_EQ(apply_grid_ao(grid, none), 0u);
+  EXPECT_TRUE(none.quality.empty());
+}
+
+}  // namespace
+}  // namespace aoscan

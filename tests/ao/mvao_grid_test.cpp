@@ -1,0 +1,183 @@
+/// @file mvao_grid_test.cpp
+/// @brief Tests for src/ao/mvao_grid.h: exact sums from hand-made frames in the three modes,
+/// far-from-origin cells, out-of-range and non-finite points, trilinear sampling, nearest cell.
+#include "ao/mvao_grid.h"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace aoscan {
+namespace {
+
+/// Cell size 0.25 m (exact in binary): 4 cells over 1 m.
+AoConfig grid_config(AoIntegration mode) {
+  AoConfig c;
+  c.grid_extent_m = 1.0;
+  c.grid_resolution = 4;
+  c.integration = mode;
+  return c;
+}
+
+/// A 1-row frame of hand-made camera-frame points with their AO and weights.
+struct Frame {
+  Image<float> ao, w;
+  PointMaps maps;
+  explicit Frame(const std::vector<Eigen::Vector3f>& points, const std::vector<float>& ao_values,
+                 const std::vector<float>& weights) {
+    const int n = static_cast<int>(points.size());
+    ao.resize(n, 1);
+    w.resize(n, 1);
+    maps.vertices.resize(n, 1, Eigen::Vector3f::Zero());
+    maps.normals.resize(n, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+    for (int i = 0; i < n; ++i) {
+      maps.vertices(i, 0) = points[i];
+      ao(i, 0) = ao_values[i];
+      w(i, 0) = weights[i];
+    }
+  }
+};
+
+const Eigen::Vector3f kA(0.1f, 0.1f, 0.1f);   // cell (0, 0, 0)
+const Eigen::Vector3f kB(0.2f, 0.05f, 0.2f);  // cell (0, 0, 0)
+const Eigen::Vector3f kC(0.3f, 0.1f, 0.1f);   // cell (1, 0, 0)
+
+TEST(MvaoGrid, ModesGiveTheExactWeightedMeans) {
+  const Frame f1({kA, kB, kC}, {0.25f, 0.75f, 0.5f}, {1.0f, 3.0f, 0.5f});
+  const Frame f2({kA}, {1.0f}, {2.0f});
+  const Pose I = Pose::identity();
+
+  MvaoGrid mvao(grid_config(AoIntegration::kMvao));
+  ASSERT_TRUE(mvao.integrate(f1.ao, f1.w, f1.maps, I).is_ok());
+  EXPECT_FLOAT_EQ(*mvao.cell_ao({0, 0, 0}), (0.25f + 3.0f * 0.75f) / 4.0f);
+  EXPECT_FLOAT_EQ(*mvao.cell_ao({1, 0, 0}), 0.5f);
+  ASSERT_TRUE(mvao.integrate(f2.ao, f2.w, f2.maps, I).is_ok());
+  EXPECT_FLOAT_EQ(*mvao.cell_ao({0, 0, 0}), (0.25f + 3.0f * 0.75f + 2.0f) / 6.0f);
+  EXPECT_EQ(mvao.find({0, 0, 0})->weight_sum, 6.0f);
+  EXPECT_EQ(mvao.cell_count(), 2u);
+  EXPECT_EQ(mvao.points_integrated(), 4u);
+  EXPECT_EQ(mvao.frames_integrated(), 2u);
+
+  MvaoGrid mean(grid_config(AoIntegration::kMean));
+  mean.integrate(f1.ao, f1.w, f1.maps, I);
+  EXPECT_FLOAT_EQ(*mean.cell_ao({0, 0, 0}), 0.5f);
+  mean.integrate(f2.ao, f2.w, f2.maps, I);
+  EXPECT_FLOAT_EQ(*mean.cell_ao({0, 0, 0}), 2.0f / 3.0f);
+  EXPECT_FLOAT_EQ(*mean.cell_ao({1, 0, 0}), 0.5f);
+
+  MvaoGrid last(grid_config(AoIntegration::kLast));
+  last.integrate(f1.ao, f1.w, f1.maps, I);
+  EXPECT_FLOAT_EQ(*last.cell_ao({0, 0, 0}), 0.5f);  // both pixels of frame 1, equal weights
+  last.integrate(f2.ao, f2.w, f2.maps, I);
+  EXPECT_FLOAT_EQ(*last.cell_ao({0, 0, 0}), 1.0f);  // only frame 2's pixel
+  EXPECT_FLOAT_EQ(*last.cell_ao({1, 0, 0}), 0.5f);  // untouched by frame 2: keeps frame 1
+}
+
+TEST(MvaoGrid, PoseMapsCameraPointsToWorldCells) {
+  // Camera rotated 90 degrees about z and shifted: camera (0.1, 0.1, 0.1) -> world (-0.1+2, ...).
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  const Pose T_world_camera(R, Eigen::Vector3d(2.0, -1.0, 0.5));
+  const Frame f({kA}, {0.3f}, {1.0f});
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));
+  grid.integrate(f.ao, f.w, f.maps, T_world_camera);
+  // World point (1.9, -0.9, 0.6) -> cell (7, -4, 2).
+  EXPECT_FLOAT_EQ(*grid.cell_ao({7, -4, 2}), 0.3f);
+  EXPECT_EQ(grid.cell_of({1.9, -0.9, 0.6}), (CellIndex{7, -4, 2}));
+}
+
+TEST(MvaoGrid, FarCellsAreKeptAndOutOfRangePointsCounted) {
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));
+  // The Morton range is [-2^20, 2^20 - 1] cells of 0.25 m: about +-262 km.
+  const double edge_m = 0.25 * (1 << 20);
+  const Pose far(Eigen::Matrix3d::Identity(), Eigen::Vector3d(edge_m - 1.0, -edge_m + 0.5, 0.0));
+  const Frame f({kA, Eigen::Vector3f(2.0f, 0.0f, 0.0f), Eigen::Vector3f(0.0f, -1.0f, 0.0f)},
+                {0.4f, 0.5f, 0.6f}, {1.0f, 1.0f, 1.0f});
+  ASSERT_TRUE(grid.integrate(f.ao, f.w, f.maps, far).is_ok());
+  EXPECT_EQ(grid.cell_count(), 1u);
+  EXPECT_EQ(grid.points_out_of_range(), 2u);
+  EXPECT_EQ(grid.points_integrated(), 1u);
+  const CellIndex c{(1 << 20) - 4, -(1 << 20) + 2, 0};
+  EXPECT_FLOAT_EQ(*grid.cell_ao(c), 0.4f);
+  EXPECT_FLOAT_EQ(*grid.sample(grid.cell_centre(c)), 0.4f);
+  EXPECT_FALSE(grid.cell_of({1e12, 0.0, 0.0}));
+  EXPECT_FALSE(grid.sample({1e12, 0.0, 0.0}));
+}
+
+TEST(MvaoGrid, NonFiniteInputsAreSkippedAndCounted) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const Frame f({kA, kA, kA, Eigen::Vector3f(nan, 0.0f, 1.0f), kA, kA},
+                {nan, 0.5f, 0.5f, 0.5f, 0.5f, 2.0f}, {1.0f, inf, -1.0f, 1.0f, 0.0f, 1.0f});
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));
+  grid.integrate(f.ao, f.w, f.maps, Pose::identity());
+  EXPECT_EQ(grid.points_invalid(), 4u);
+  EXPECT_EQ(grid.points_integrated(), 1u);  // the AO of 2 is clamped to 1
+  EXPECT_FLOAT_EQ(*grid.cell_ao({0, 0, 0}), 1.0f);
+  // A non-finite pose skips every point.
+  Eigen::Matrix3d bad = Eigen::Matrix3d::Identity();
+  bad(0, 0) = nan;
+  const Frame g({kA}, {0.5f}, {1.0f});
+  grid.integrate(g.ao, g.w, g.maps, Pose(bad, Eigen::Vector3d::Zero()));
+  EXPECT_EQ(grid.points_invalid(), 5u);
+  EXPECT_FALSE(grid.sample(Eigen::Vector3d::Constant(std::nan(""))));
+  EXPECT_FALSE(grid.nearest_observed(Eigen::Vector3d::Constant(std::nan("")), 3));
+  // Size mismatch is reported, not UB.
+  Image<float> small(1, 1, 0.5f);
+  EXPECT_EQ(grid.integrate(small, g.w, f.maps, Pose::identity()).code(), Status::Code::kInternal);
+}
+
+TEST(MvaoGrid, TrilinearSamplingRenormalisesOverObservedCells) {
+  // Cells (0,0,0) AO 0 and (1,0,0) AO 1; centres at x = 0.125 and 0.375.
+  const Frame f({kA, kC}, {0.0f, 1.0f}, {1.0f, 1.0f});
+  MvaoGrid grid(grid_config(AoIntegration::kMean));
+  grid.integrate(f.ao, f.w, f.maps, Pose::identity());
+  EXPECT_FLOAT_EQ(*grid.sample({0.125, 0.125, 0.125}), 0.0f);
+  EXPECT_FLOAT_EQ(*grid.sample({0.1875, 0.125, 0.125}), 0.25f);
+  EXPECT_FLOAT_EQ(*grid.sample({0.3125, 0.125, 0.125}), 0.75f);
+  // Off the cell-centre plane: the unobserved y/z neighbours drop out, x weights stay 1:3.
+  EXPECT_FLOAT_EQ(*grid.sample({0.3125, 0.2, 0.05}), 0.75f);
+  // Beyond the last centre only the observed corner counts.
+  EXPECT_FLOAT_EQ(*grid.sample({0.45, 0.125, 0.125}), 1.0f);
+  // No observed corner nearby.
+  EXPECT_FALSE(grid.sample({2.0, 2.0, 2.0}));
+}
+
+TEST(MvaoGrid, NearestObservedFindsTheClosestCentre) {
+  const Frame f({kA, kC}, {0.2f, 0.9f}, {1.0f, 1.0f});
+  MvaoGrid grid(grid_config(AoIntegration::kMean));
+  EXPECT_FALSE(grid.nearest_observed({0.0, 0.0, 0.0}, 5));  // empty grid
+  grid.integrate(f.ao, f.w, f.maps, Pose::identity());
+  EXPECT_FLOAT_EQ(*grid.nearest_observed({0.9, 0.1, 0.1}, 4), 0.9f);
+  EXPECT_FLOAT_EQ(*grid.nearest_observed({-0.6, 0.1, 0.1}, 4), 0.2f);
+  EXPECT_FALSE(grid.nearest_observed({2.0, 0.1, 0.1}, 2));  // 7 cells away
+  EXPECT_FLOAT_EQ(*grid.nearest_observed({2.0, 0.1, 0.1}, 7), 0.9f);
+}
+
+TEST(MvaoGrid, MemoryGrowsOnlyWithObservedCells) {
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));
+  const std::size_t empty_bytes = grid.memory_bytes();
+  EXPECT_GT(empty_bytes, 0u);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 5000; ++i) pts.emplace_back(0.25f * i + 0.1f, 0.1f, 0.1f);
+  const Frame f(pts, std::vector<float>(pts.size(), 0.5f), std::vector<float>(pts.size(), 1.0f));
+  grid.integrate(f.ao, f.w, f.maps, Pose::identity());
+  EXPECT_EQ(grid.cell_count(), 5000u);
+  EXPECT_GT(grid.memory_bytes(), empty_bytes);
+  EXPECT_LE(grid.memory_bytes(), 4 * 5000 * (sizeof(std::uint64_t) + sizeof(MvaoCell)));
+  for (int i = 0; i < 5000; ++i) ASSERT_FLOAT_EQ(*grid.cell_ao({i, 0, 0}), 0.5f);
+  grid.clear();
+  EXPECT_EQ(grid.cell_count(), 0u);
+  EXPECT_FALSE(grid.cell_ao({0, 0, 0}));
+}
+
+TEST(MvaoGrid, RejectsADegenerateCellSize) {
+  AoConfig c;
+  c.grid_extent_m = std::nan("");
+  EXPECT_THROW(MvaoGrid{c}, Error);
+}
+
+}  // namespace
+}  // namespace aoscan

@@ -1,0 +1,226 @@
+/// @file ssao_test.cpp
+/// @brief Tests for src/ao/ssao.h: view weights (Eq. 10-11), exact values on analytic planes and
+/// corners, fast == reference, thread-count determinism, stride-2 evaluation, invalid inputs.
+#include "ao/ssao.h"
+
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "ao/ao_test_util.h"
+
+namespace aoscan {
+namespace {
+
+using test::look_at;
+using test::Plane;
+using test::render_planes;
+using test::small_camera;
+
+constexpr AoEstimator kAllEstimators[] = {AoEstimator::kPaper, AoEstimator::kObscurance,
+                                          AoEstimator::kAlchemy, AoEstimator::kHorizon};
+
+AoConfig config_for(AoEstimator e, int stride) {
+  AoConfig c;
+  c.estimator = e;
+  c.ssao_stride_px = stride;
+  return c;
+}
+
+/// Camera 1.2 m in front of the wall z = 0 (world), looking straight at it.
+PointMaps open_wall() {
+  const Pose T = look_at({0.0, 0.0, 1.2}, {0.0, 0.0, 0.0}, {0.0, 1.0, 0.0});
+  return render_planes(small_camera(), T, {Plane{{0.0, 0.0, 1.0}, 0.0}});
+}
+
+/// The inner edge between the floor y = 0 and the wall x = 0, seen at 45 degrees from 1.5 m.
+PointMaps floor_wall_edge(Pose* T_out = nullptr) {
+  const Pose T = look_at({1.0, 1.0, 0.3}, {0.0, 0.0, 0.0}, {0.0, 0.0, 1.0});
+  if (T_out) *T_out = T;
+  return render_planes(small_camera(), T,
+                       {Plane{{1.0, 0.0, 0.0}, 0.0}, Plane{{0.0, 1.0, 0.0}, 0.0}});
+}
+
+TEST(ViewWeight, MatchesEquations10And11) {
+  const Eigen::Vector3f facing(0.0f, 0.0f, -1.0f);
+  // |p| = 2 m: w_d = 1 - (2 - 0.4) / 3.
+  EXPECT_FLOAT_EQ(view_weight({0.0f, 0.0f, 2.0f}, facing, 0.4f, 3.0f), 1.0f - 1.6f / 3.0f);
+  // Nearer than d_min: w_d = 1.
+  EXPECT_FLOAT_EQ(view_weight({0.0f, 0.0f, 0.3f}, facing, 0.4f, 3.0f), 1.0f);
+  // Far: w_d floors at 0.1.
+  EXPECT_FLOAT_EQ(view_weight({0.0f, 0.0f, 10.0f}, facing, 0.4f, 3.0f), 0.1f);
+  // Normal tilted 60 degrees from the view direction: w_n = 0.5.
+  const Eigen::Vector3f tilted(std::sin(1.04719755f), 0.0f, -std::cos(1.04719755f));
+  EXPECT_NEAR(view_weight({0.0f, 0.0f, 0.4f}, tilted, 0.4f, 3.0f), 0.5f, 1e-6f);
+  // Off-axis point: |p| is the distance, l points to the camera.
+  const Eigen::Vector3f p(0.6f, 0.0f, 0.8f);
+  EXPECT_NEAR(view_weight(p, -p, 0.4f, 3.0f), 1.0f - 0.6f / 3.0f, 1e-6f);
+  // Back-facing and invalid inputs give 0.
+  EXPECT_EQ(view_weight({0.0f, 0.0f, 2.0f}, -facing, 0.4f, 3.0f), 0.0f);
+  EXPECT_EQ(view_weight(Eigen::Vector3f::Zero(), facing, 0.4f, 3.0f), 0.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(view_weight({nan, 0.0f, 1.0f}, facing, 0.4f, 3.0f), 0.0f);
+}
+
+TEST(Ssao, PatternIsInsideTheUnitDiskAndChangesWithTheFrame) {
+  for (AoEstimator e : kAllEstimators) {
+    const AoConfig c = config_for(e, 1);
+    const SsaoPattern a = make_ssao_pattern(c, 0);
+    const SsaoPattern b = make_ssao_pattern(c, 1);
+    ASSERT_EQ(a.offsets.size(), static_cast<std::size_t>(kSsaoPatternClasses * a.samples));
+    EXPECT_EQ(a.samples, 32);
+    for (const auto& o : a.offsets) EXPECT_LE(o.norm(), 1.0f + 1e-6f);
+    EXPECT_NE(a.offsets, b.offsets);
+    EXPECT_EQ(a.offsets, make_ssao_pattern(c, 0).offsets);  // deterministic
+  }
+}
+
+TEST(Ssao, OpenWallIsFullyOpenExceptForThePaperEstimator) {
+  const PointMaps maps = open_wall();
+  Image<float> ao, w;
+  // Every sample lies exactly in the tangent plane: no occlusion (exact for the point forms).
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy}) {
+    compute_ssao(maps, config_for(e, 1), 0, ao, w);
+    for (int y = 0; y < ao.height(); ++y)
+      for (int x = 0; x < ao.width(); ++x) ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
+  }
+  // Horizon: samples are rounded to pixel centres, so slightly off the slice plane.
+  compute_ssao(maps, config_for(AoEstimator::kHorizon, 1), 0, ao, w);
+  double mean = 0.0;
+  for (float v : std::vector<float>(ao.data(), ao.data() + ao.size())) mean += v;
+  EXPECT_GT(mean / ao.size(), 0.98);
+  // Eq. 3 as printed counts tangent samples within t_max as occluders: an open wall is dark.
+  compute_ssao(maps, config_for(AoEstimator::kPaper, 1), 0, ao, w);
+  EXPECT_LT(ao(160, 120), 0.8f);
+  // The wall faces the camera at 1.2 m on the axis: w = w_d = 1 - 0.8 / 3.
+  EXPECT_NEAR(w(160, 120), 1.0f - 0.8f / 3.0f, 1e-5f);
+}
+
+TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
+  Pose T;
+  const PointMaps maps = floor_wall_edge(&T);
+  Image<float> ao, w;
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon}) {
+    compute_ssao(maps, config_for(e, 1), 3, ao, w);
+    double near_sum = 0.0, far_sum = 0.0;
+    int near_n = 0, far_n = 0;
+    float far_min = 1.0f;
+    for (int y = 0; y < ao.height(); ++y)
+      for (int x = 0; x < ao.width(); ++x) {
+        const Eigen::Vector3d p = T * maps.vertices(x, y).cast<double>();
+        const double dist_to_edge = std::hypot(p.x(), p.y());
+        if (dist_to_edge < 0.03) near_sum += ao(x, y), ++near_n;
+        if (dist_to_edge > 0.25)
+          far_sum += ao(x, y), ++far_n, far_min = std::min(far_min, ao(x, y));
+      }
+    ASSERT_GT(near_n, 100);
+    ASSERT_GT(far_n, 1000);
+    EXPECT_LT(near_sum / near_n, 0.85) << static_cast<int>(e);
+    EXPECT_GT(far_sum / far_n, 0.98) << static_cast<int>(e);
+    // Obscurance: a sample on the other plane farther than t_max has rho = 1 and does not count
+    // (float rounding of n . v on the tilted planes leaves ~1e-6).
+    if (e == AoEstimator::kObscurance) {
+      EXPECT_GT(far_min, 1.0f - 1e-5f);
+    }
+  }
+}
+
+TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
+  const PointMaps maps = floor_wall_edge();
+  for (AoEstimator e : kAllEstimators)
+    for (int stride : {1, 2})
+      for (std::uint64_t frame : {0u, 5u}) {
+        const AoConfig c = config_for(e, stride);
+        Image<float> ao, w, ao_ref, w_ref;
+        compute_ssao(maps, c, frame, ao, w);
+        compute_ssao_reference(maps, c, frame, ao_ref, w_ref);
+        ASSERT_EQ(w, w_ref);
+        float max_diff = 0.0f;
+        for (std::size_t i = 0; i < ao.size(); ++i)
+          max_diff = std::max(max_diff, std::abs(ao.data()[i] - ao_ref.data()[i]));
+        EXPECT_LE(max_diff, 1e-5f) << static_cast<int>(e) << " stride " << stride;
+      }
+}
+
+TEST(Ssao, BitIdenticalForAnyThreadCount) {
+  const PointMaps maps = floor_wall_edge();
+  for (int stride : {1, 2}) {
+    const AoConfig c = config_for(AoEstimator::kObscurance, stride);
+    Image<float> ao1, w1, ao2, w2;
+    {
+      tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+      compute_ssao(maps, c, 7, ao1, w1);
+    }
+    {
+      tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+      compute_ssao(maps, c, 7, ao2, w2);
+    }
+    EXPECT_EQ(ao1, ao2);
+    EXPECT_EQ(w1, w2);
+  }
+}
+
+TEST(Ssao, StrideTwoEvaluatesOnePixelPerBlockAndRotates) {
+  const PointMaps maps = floor_wall_edge();
+  const AoConfig c = config_for(AoEstimator::kObscurance, 2);
+  Image<float> ao, w;
+  Image<int> evaluated(maps.vertices.width(), maps.vertices.height(), 0);
+  for (std::uint64_t frame = 0; frame < 4; ++frame) {
+    compute_ssao(maps, c, frame, ao, w);
+    for (int by = 0; by < ao.height() / 2; ++by)
+      for (int bx = 0; bx < ao.width() / 2; ++bx) {
+        int with_weight = 0;
+        for (int i = 0; i < 4; ++i) {
+          const int x = 2 * bx + (i & 1), y = 2 * by + (i >> 1);
+          if (w(x, y) > 0.0f) ++with_weight, ++evaluated(x, y);
+          // Valid pixels of a block share the evaluated pixel's AO.
+          if (maps.vertices(x, y).z() > 0.0f) {
+            EXPECT_EQ(ao(x, y), ao(2 * bx, 2 * by));
+          }
+        }
+        ASSERT_EQ(with_weight, 1);  // every pixel of this scene is valid
+      }
+  }
+  // Over four frames every pixel was evaluated exactly once.
+  for (int v : std::vector<int>(evaluated.data(), evaluated.data() + evaluated.size()))
+    ASSERT_EQ(v, 1);
+}
+
+TEST(Ssao, InvalidAndNonFiniteInputsGiveZeroAndNeverNaN) {
+  PointMaps maps = floor_wall_edge();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  maps.vertices(10, 10) = Eigen::Vector3f(nan, 0.0f, 1.0f);
+  maps.vertices(11, 10) = Eigen::Vector3f(0.0f, inf, 1.0f);
+  maps.normals(12, 10) = Eigen::Vector3f(nan, nan, nan);
+  maps.vertices(13, 10) = Eigen::Vector3f::Zero();
+  maps.normals(13, 10) = Eigen::Vector3f::Zero();
+  maps.vertices(14, 10) = Eigen::Vector3f(0.0f, 0.0f, -1.0f);
+  // A block of NaN samples around a valid pixel.
+  for (int y = 50; y < 90; ++y)
+    for (int x = 50; x < 90; ++x)
+      if (x != 70 || y != 70) maps.vertices(x, y) = Eigen::Vector3f::Constant(nan);
+  for (AoEstimator e : kAllEstimators)
+    for (int stride : {1, 2}) {
+      Image<float> ao, w;
+      compute_ssao(maps, config_for(e, stride), 1, ao, w);
+      for (int x = 10; x <= 14; ++x) {
+        EXPECT_EQ(ao(x, 10), 0.0f);
+        EXPECT_EQ(w(x, 10), 0.0f);
+      }
+      for (std::size_t i = 0; i < ao.size(); ++i) {
+        ASSERT_TRUE(ao.data()[i] >= 0.0f && ao.data()[i] <= 1.0f);
+        ASSERT_TRUE(w.data()[i] >= 0.0f && w.data()[i] <= 1.0f);
+      }
+    }
+  // Mismatched or empty maps give empty / zero outputs.
+  PointMaps empty;
+  Image<float> ao, w;
+  compute_ssao(empty, AoConfig{}, 0, ao, w);
+  EXPECT_TRUE(ao.empty());
+}
+
+}  // namespace
+}  // namespace aoscan
