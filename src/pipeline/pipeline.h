@@ -31,6 +31,9 @@ struct FrameWork {
   PreprocessedFrame pre;   ///< metres, outliers removed, filtered, tracking pyramid
   FusionStep fusion;       ///< tracking status and pose
   std::shared_ptr<const RaycastResult> raycast;  ///< the model seen from this frame's pose, when tracked
+  PointMaps raw_maps;        ///< camera-frame maps of pre.depth_m (only with ao.input=raw)
+  Image<float> ssao;         ///< screen-space AO of this view, 1 = open (empty when not tracked)
+  Image<float> ssao_weight;  ///< per-pixel view weight w_d * w_n
 };
 
 /// A processing step of the chain. It runs on its own thread; `process` returns ok to pass the

@@ -4,17 +4,22 @@
 
 #include <filesystem>
 
+#include "ao/mesh_ao.h"
+#include "ao/ssao.h"
 #include "core/log.h"
 #include "io/ply.h"
 
 namespace aoscan {
 
-Processing::Processing(const Config& config) : config_(config), reconstruction_(config) {}
+Processing::Processing(const Config& config)
+    : config_(config), reconstruction_(config), grid_(config.ao) {}
 
 std::vector<StageDef> Processing::stages() {
   return {
       {"preprocess", [this](FrameWork& frame) { return preprocess(frame); }},
       {"track", [this](FrameWork& frame) { return track(frame); }},
+      {"ssao", [this](FrameWork& frame) { return ssao(frame); }},
+      {"mvao", [this](FrameWork& frame) { return mvao(frame); }},
   };
 }
 
@@ -41,12 +46,38 @@ Status Processing::track(FrameWork& frame) {
   return Status::ok();
 }
 
+Status Processing::ssao(FrameWork& frame) const {
+  if (!frame.raycast) {  // not tracked: no pose to place this view's AO
+    frame.ssao.resize(0, 0);
+    return Status::ok();
+  }
+  const PointMaps* maps = &frame.raycast->maps;
+  if (config_.ao.input == AoInput::kRaw) {
+    frame.raw_maps.intrinsics = frame.raw.intrinsics;
+    compute_vertex_map(frame.pre.depth_m, frame.raw.intrinsics, frame.raw_maps.vertices);
+    compute_normal_map(frame.raw_maps.vertices,
+                       static_cast<float>(config_.preprocess.normal_max_depth_jump_m),
+                       frame.raw_maps.normals);
+    maps = &frame.raw_maps;
+  }
+  compute_ssao(*maps, config_.ao, frame.raw.sequence, frame.ssao, frame.ssao_weight);
+  return Status::ok();
+}
+
+Status Processing::mvao(FrameWork& frame) {
+  if (frame.ssao.empty()) return Status::ok();
+  const PointMaps& maps =
+      config_.ao.input == AoInput::kRaw ? frame.raw_maps : frame.raycast->maps;
+  return grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera);
+}
+
 Processing::ExportStats Processing::write_outputs(const std::string& out_dir) const {
   const std::filesystem::path dir(out_dir);
   write_trajectory((dir / "trajectory.txt").string(), trajectory_);
-  const TriangleMesh mesh = reconstruction_.extract_mesh();
+  TriangleMesh mesh = reconstruction_.extract_mesh();
+  const std::size_t unobserved = apply_grid_ao(grid_, mesh);
   write_ply((dir / "mesh.ply").string(), mesh);
-  return {mesh.vertices.size(), mesh.faces.size()};
+  return {mesh.vertices.size(), mesh.faces.size(), unobserved};
 }
 
 }  // namespace aoscan

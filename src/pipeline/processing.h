@@ -1,6 +1,7 @@
 /// @file processing.h
 /// @brief aoscan's processing stages and the state each one owns (one writer per structure):
-/// preprocess → track+integrate(+raycast). Used by replay/scan sessions and by the benchmark.
+/// preprocess → track+integrate(+raycast) → ssao → mvao. Used by replay/scan sessions and by the
+/// benchmark.
 #pragma once
 
 #include <atomic>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "core/config.h"
+#include "ao/mvao_grid.h"
 #include "core/mesh.h"
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
@@ -34,24 +36,29 @@ class Processing {
   const std::vector<StampedPose>& trajectory() const { return trajectory_; }
   std::size_t frames_tracking_lost() const { return frames_tracking_lost_; }
   const Reconstruction& reconstruction() const { return reconstruction_; }
+  const MvaoGrid& grid() const { return grid_; }
 
   /// Writes trajectory.txt and mesh.ply into `out_dir` (read after the chain has stopped).
   /// Returns the mesh statistics for stats.json.
   struct ExportStats {
     std::size_t mesh_vertices = 0;
     std::size_t mesh_faces = 0;
+    std::size_t ao_unobserved_vertices = 0;  ///< vertices that took the nearest observed cell's AO
   };
   ExportStats write_outputs(const std::string& out_dir) const;
 
  private:
   Status preprocess(FrameWork& frame) const;
   Status track(FrameWork& frame);
+  Status ssao(FrameWork& frame) const;
+  Status mvao(FrameWork& frame);
 
   Config config_;
   /// Raycasts in flight (tracking reference + downstream); declared before reconstruction_,
   /// which holds one of them, so that it outlives every pointer it handed out.
   ObjectPool<RaycastResult> raycasts_;
-  Reconstruction reconstruction_;
+  Reconstruction reconstruction_;  ///< written by the track stage only
+  MvaoGrid grid_;                  ///< written by the mvao stage only
   std::vector<StampedPose> trajectory_;
   std::size_t frames_tracking_lost_ = 0;
   std::atomic<bool> reset_requested_{false};

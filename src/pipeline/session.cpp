@@ -71,7 +71,10 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
                         {"ms_max", t.ms_max}};
   }
   j["stages"] = stages;
-  j["mesh"] = {{"vertices", r.mesh_vertices}, {"faces", r.mesh_faces}};
+  j["mesh"] = {{"vertices", r.mesh_vertices},
+               {"faces", r.mesh_faces},
+               {"ao_unobserved_vertices", r.ao_unobserved_vertices}};
+  j["mvao_grid"] = {{"cells", r.grid_cells}, {"points_out_of_range", r.grid_points_out_of_range}};
   j["tsdf"] = {{"blocks", r.tsdf_blocks},
                {"memory_mb", r.tsdf_memory_mb},
                {"capacity_reached", r.tsdf_capacity_reached}};
@@ -132,6 +135,12 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   result.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
   result.mesh_vertices = exported.mesh_vertices;
   result.mesh_faces = exported.mesh_faces;
+  result.ao_unobserved_vertices = exported.ao_unobserved_vertices;
+  result.grid_cells = processing.grid().cell_count();
+  result.grid_points_out_of_range = processing.grid().points_out_of_range();
+  if (result.grid_points_out_of_range > 0)
+    spdlog::warn("{} points lay outside the MVAO grid's range and got no AO",
+                 result.grid_points_out_of_range);
   const TsdfVolume& volume = processing.reconstruction().volume();
   result.tsdf_blocks = static_cast<std::size_t>(volume.block_count());
   result.tsdf_memory_mb = static_cast<double>(volume.memory_bytes()) / (1024.0 * 1024.0);

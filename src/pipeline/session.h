@@ -29,6 +29,9 @@ struct SessionResult {
   double export_s = 0.0;
   std::size_t mesh_vertices = 0;
   std::size_t mesh_faces = 0;
+  std::size_t ao_unobserved_vertices = 0;
+  std::size_t grid_cells = 0;
+  std::uint64_t grid_points_out_of_range = 0;
   std::size_t tsdf_blocks = 0;
   double tsdf_memory_mb = 0.0;
   bool tsdf_capacity_reached = false;
