@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-dev libcli11-dev
-          nlohmann-json3-dev libyaml-cpp-dev libtbb-dev)
+          nlohmann-json3-dev libyaml-cpp-dev libtbb-dev libopenni2-dev libfreenect-dev)
 if [[ "${1:-}" == "--tests" ]]; then
   packages+=(libgtest-dev)
 fi

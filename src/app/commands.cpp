@@ -11,6 +11,7 @@
 #include "capture/source.h"
 #include "core/config.h"
 #include "core/log.h"
+#include "pipeline/live_recorder.h"
 #include "pipeline/session.h"
 
 namespace aoscan {
@@ -36,19 +37,28 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
 
 ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_requested) {
   std::unique_ptr<Source> source = open_source(args.source);
-  const RecordStats stats = record_source(*source, args.dir, args.max_frames, &stop_requested);
+  // A live camera is read on its own thread so a slow disk never stalls it; recordings and
+  // synthetic scenes are simply read and written in turn.
+  const RecordStats stats =
+      source->live() ? record_live_source(*source, args.dir, args.max_frames, stop_requested)
+                     : record_source(*source, args.dir, args.max_frames, &stop_requested);
   std::fprintf(stderr, "aoscan: recorded %zu frames to %s", stats.frames_written, args.dir.c_str());
-  if (stats.frames_corrupt > 0) std::fprintf(stderr, " (%zu unreadable skipped)", stats.frames_corrupt);
+  if (stats.frames_corrupt > 0)
+    std::fprintf(stderr, " (%zu unreadable skipped)", stats.frames_corrupt);
   std::fputc('\n', stderr);
-  if (stats.frames_written == 0)
-    throw input_error(args.source + ": no usable frame to record");
+  if (stats.frames_dropped > 0)
+    std::fprintf(stderr,
+                 "aoscan: warning: %zu frames dropped: the disk could not keep up with %s\n",
+                 stats.frames_dropped, source->name().c_str());
+  if (stats.frames_written == 0) throw input_error(args.source + ": no usable frame to record");
   return ExitCode::kOk;
 }
 
 ExitCode run_devices() {
   const std::vector<DeviceInfo> found = list_devices();
   for (const DeviceInfo& d : found) std::printf("%s\t%s\n", d.uri.c_str(), d.description.c_str());
-  if (found.empty()) std::fprintf(stderr, "aoscan: no depth camera found (%s)\n", devices_searched().c_str());
+  if (found.empty())
+    std::fprintf(stderr, "aoscan: no depth camera found (%s)\n", devices_searched().c_str());
   return ExitCode::kOk;
 }
 

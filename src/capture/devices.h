@@ -1,9 +1,12 @@
 /// @file devices.h
-/// @brief Enumeration of the depth cameras the capture back-ends can see.
+/// @brief Enumeration of the depth cameras the capture back-ends can see, and `auto` selection.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
+
+#include "capture/source.h"
 
 namespace aoscan {
 
@@ -12,10 +15,15 @@ struct DeviceInfo {
   std::string description;  ///< model / driver and depth formats
 };
 
-/// Every depth camera found; an empty list is not an error.
+/// Every depth camera found by OpenNI2, libfreenect and V4L2, in that order; an empty list is not
+/// an error.
 std::vector<DeviceInfo> list_devices();
 
 /// What list_devices() looked at, for the "nothing found" message.
 std::string devices_searched();
+
+/// `auto`: opens the first camera of list_devices() that opens. Throws device_error that lists
+/// what was tried (and why each candidate failed) when none does.
+std::unique_ptr<Source> open_first_camera();
 
 }  // namespace aoscan

@@ -15,6 +15,8 @@ namespace aoscan {
 struct RecordStats {
   std::size_t frames_written = 0;  ///< frames stored in the folder
   std::size_t frames_corrupt = 0;  ///< corrupt frames the source reported (skipped)
+  std::size_t frames_dropped =
+      0;  ///< live recording only: frames lost because the disk fell behind
 };
 
 /// Reads `source` until it ends, `max_frames` frames are written, or `*stop_requested` becomes

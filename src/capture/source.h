@@ -38,9 +38,10 @@ class Source {
   virtual const TriangleMesh* scene_mesh() const { return nullptr; }
 };
 
-/// Opens SOURCE as the contract spells it: a TUM-layout folder, `synth:NAME?k=v&...`, (later)
+/// Opens SOURCE as the contract spells it: a TUM-layout folder, `synth:NAME?k=v&...`,
 /// `FILE.oni` and live camera URIs. Throws Error: usage_error for an unknown synth scene or
-/// parameter, input_error for a missing or broken recording, device_error for cameras.
+/// parameter, input_error for a missing or broken recording (also `.oni`), device_error for
+/// cameras (`openni2[:URI]`, `freenect[:INDEX]`, `v4l2:/dev/videoN`, `auto`).
 std::unique_ptr<Source> open_source(const std::string& spec);
 
 }  // namespace aoscan

@@ -1,0 +1,135 @@
+/// @file fakenect_dump.cpp
+/// @brief write_fakenect_dump(): a Source as INDEX.txt + PGM disparity frames.
+#include "capture/fakenect_dump.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "capture/kinect_disparity.h"
+
+namespace aoscan {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+[[noreturn]] void write_failed(const std::string& path) {
+  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno ? errno : EIO));
+}
+
+void close_checked(File& file, const std::string& path) {
+  if (!file) return;
+  const bool failed = std::ferror(file.get()) != 0;
+  if (std::fclose(file.release()) != 0 || failed) write_failed(path);
+}
+
+[[noreturn]] void throw_for(const Status& status) {
+  switch (status.code()) {
+    case Status::Code::kBadInput:
+      throw input_error(status.message());
+    case Status::Code::kDeviceLost:
+      throw device_error(status.message());
+    default:
+      throw Error(ExitCode::kFailure, status.message());
+  }
+}
+
+}  // namespace
+
+std::string fakenect_depth_file_name(double time_s, std::uint32_t ticks) {
+  char name[96];
+  std::snprintf(name, sizeof name, "d-%.6f-%u.pgm", time_s, static_cast<unsigned>(ticks));
+  return name;
+}
+
+FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
+                                      std::optional<std::size_t> max_frames,
+                                      const std::atomic<bool>* stop_requested) {
+  std::string root = dir;
+  while (root.size() > 1 && root.back() == '/') root.pop_back();
+  const std::string index_path = root + "/INDEX.txt";
+  std::error_code ec;
+  if (fs::exists(index_path, ec))
+    throw usage_error(root + ": already holds a fakenect dump (INDEX.txt); choose another folder");
+  fs::create_directories(root, ec);
+  if (ec) throw Error(ExitCode::kFailure, root + ": cannot create folder: " + ec.message());
+
+  File index(std::fopen(index_path.c_str(), "wb"));
+  if (!index) write_failed(index_path);
+
+  FakenectDumpStats stats;
+  DepthFrame frame;
+  std::vector<std::uint16_t> disparity(static_cast<std::size_t>(kFakenectWidth) * kFakenectHeight);
+  std::optional<double> first_time_s;
+  const std::string header = "P5 640 480 65535\n";
+
+  while (!max_frames || stats.frames_written < *max_frames) {
+    if (stop_requested && stop_requested->load()) break;
+    const Status status = source.read(frame);
+    if (status.code() == Status::Code::kEndOfStream || status.code() == Status::Code::kCancelled)
+      break;
+    if (status.code() == Status::Code::kCorruptFrame) {
+      ++stats.frames_corrupt;
+      continue;
+    }
+    if (!status.is_ok()) {
+      close_checked(index, index_path);
+      throw_for(status);
+    }
+    if (frame.depth.width() != kFakenectWidth || frame.depth.height() != kFakenectHeight) {
+      close_checked(index, index_path);
+      throw input_error(frame.origin + " (frame " + std::to_string(frame.sequence) +
+                        "): " + std::to_string(frame.depth.width()) + "x" +
+                        std::to_string(frame.depth.height()) +
+                        " depth; fakenect replays 640x480 only");
+    }
+
+    // Raw units -> mm -> the nearest Kinect disparity, little-endian on disk.
+    const double mm_per_unit = 1000.0 / frame.depth_scale;
+    const std::uint16_t* in = frame.depth.data();
+    for (std::size_t i = 0; i < disparity.size(); ++i) {
+      std::uint16_t raw = kKinectRawInvalid;
+      if (in[i] != 0) {
+        const double mm = std::round(in[i] * mm_per_unit);
+        if (mm >= 1.0 && mm <= 65535.0) raw = kinect_mm_to_raw(static_cast<std::uint16_t>(mm));
+        if (raw == kKinectRawInvalid) ++stats.pixels_out_of_range;
+      }
+      const unsigned char le[2] = {static_cast<unsigned char>(raw & 0xff),
+                                   static_cast<unsigned char>(raw >> 8)};
+      std::memcpy(&disparity[i], le, 2);
+    }
+
+    if (!first_time_s) first_time_s = frame.timestamp_s;
+    const double elapsed_s = frame.timestamp_s - *first_time_s;
+    const auto ticks = static_cast<std::uint32_t>(
+        static_cast<std::uint64_t>(std::llround(std::max(0.0, elapsed_s) * kKinectClockHz)));
+    const std::string name = fakenect_depth_file_name(frame.timestamp_s, ticks);
+    const std::string path = root + "/" + name;
+    {
+      File pgm(std::fopen(path.c_str(), "wb"));
+      if (!pgm) write_failed(path);
+      if (std::fwrite(header.data(), 1, header.size(), pgm.get()) != header.size() ||
+          std::fwrite(disparity.data(), sizeof(std::uint16_t), disparity.size(), pgm.get()) !=
+              disparity.size())
+        write_failed(path);
+      close_checked(pgm, path);
+    }
+    if (std::fprintf(index.get(), "%s\n", name.c_str()) < 0 || std::fflush(index.get()) != 0)
+      write_failed(index_path);
+    ++stats.frames_written;
+  }
+  close_checked(index, index_path);
+  return stats;
+}
+
+}  // namespace aoscan

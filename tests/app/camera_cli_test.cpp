@@ -1,0 +1,131 @@
+// End-to-end camera runs of the aoscan executable under fakenect: scan until the dump ends
+// (unplug → exit 4 with outputs written), record from the live Kinect path, devices, no camera.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_camcli_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+CliRun run(const std::string& env, const std::string& args, const fs::path& scratch) {
+  const std::string cmd = env + " '" AOSCAN_BINARY "' " + args + " > '" +
+                          (scratch / "out.txt").string() + "' 2> '" +
+                          (scratch / "err.txt").string() + "' < /dev/null";
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.out = read_text(scratch / "out.txt");
+  r.err = read_text(scratch / "err.txt");
+  return r;
+}
+
+/// Environment that makes aoscan's libfreenect the fakenect replay of `dump`.
+std::string fakenect_env(const fs::path& dump) {
+  return "LD_LIBRARY_PATH='" AOSCAN_FAKENECT_DIR "' FAKENECT_PATH='" + dump.string() + "'";
+}
+
+/// A fakenect dump of `frames` synthetic frames; empty path when fakenect is not installed.
+fs::path make_dump(const fs::path& dir, int frames) {
+  if (!fs::exists(fs::path(AOSCAN_FAKENECT_DIR) / "libfreenect.so")) return {};
+  const fs::path rec = dir / "rec";
+  const fs::path dump = dir / "dump";
+  CliRun r =
+      run("", "record 'synth:corner?frames=" + std::to_string(frames) + "' '" + rec.string() + "'",
+          dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const fs::path tool = fs::path(AOSCAN_BINARY).parent_path() / "aoscan-fakenect-dump";
+  if (!fs::exists(tool)) return {};
+  const std::string cmd =
+      "'" + tool.string() + "' '" + rec.string() + "' '" + dump.string() + "' 2>/dev/null";
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+  return dump;
+}
+
+TEST(CameraCli, ScanUntilTheKinectIsUnpluggedWritesOutputsAndExitsFour) {
+  const fs::path dir = temp_dir("scan");
+  const fs::path dump = make_dump(dir, 10);
+  if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
+  const CliRun r =
+      run(fakenect_env(dump),
+          "scan --device freenect --headless --out '" + (dir / "out").string() + "'", dir);
+  EXPECT_EQ(r.exit_code, 4) << r.err;
+  EXPECT_NE(r.err.find("aoscan: error: freenect"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("unplugged"), std::string::npos) << r.err;
+  const auto stats = nlohmann::json::parse(read_text(dir / "out" / "stats.json"));
+  EXPECT_EQ(stats["frames_read"].get<int>(), 10);
+  EXPECT_EQ(stats["frames_processed"].get<int>() + stats["frames_dropped"].get<int>(), 10);
+}
+
+TEST(CameraCli, DevicesListsTheKinectAndAutoScansIt) {
+  const fs::path dir = temp_dir("devices");
+  const fs::path dump = make_dump(dir, 4);
+  if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
+  const CliRun d = run(fakenect_env(dump), "devices", dir);
+  EXPECT_EQ(d.exit_code, 0) << d.err;
+  EXPECT_NE(d.out.find("freenect:0\t"), std::string::npos) << d.out;
+  const CliRun s =
+      run(fakenect_env(dump), "scan --headless --out '" + (dir / "out").string() + "'", dir);
+  EXPECT_EQ(s.exit_code, 4) << s.err;  // auto picked the Kinect; the dump's end is the unplug
+  EXPECT_TRUE(fs::exists(dir / "out" / "stats.json"));
+}
+
+TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
+  const fs::path dir = temp_dir("record");
+  const fs::path dump = make_dump(dir, 12);
+  if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
+  const fs::path out = dir / "kinect";
+  const CliRun r = run(fakenect_env(dump), "record freenect '" + out.string() + "'", dir);
+  EXPECT_EQ(r.exit_code, 4) << r.err;
+  std::ifstream list(out / "depth.txt");
+  int frames = 0;
+  for (std::string line; std::getline(list, line);)
+    if (!line.empty() && line[0] != '#') ++frames;
+  EXPECT_EQ(frames, 12);
+  EXPECT_TRUE(fs::exists(out / "camera.json"));
+  const CliRun limited =
+      run(fakenect_env(dump), "record freenect '" + (dir / "five").string() + "' --frames 5", dir);
+  EXPECT_EQ(limited.exit_code, 0) << limited.err;
+}
+
+TEST(CameraCli, NoCameraAndNonCameraNodesAreExitFourWithOneLine) {
+  const fs::path dir = temp_dir("none");
+  const CliRun v =
+      run("", "scan --headless --device v4l2:/dev/null --out '" + (dir / "o").string() + "'", dir);
+  EXPECT_EQ(v.exit_code, 4);
+  EXPECT_NE(v.err.find("aoscan: error: v4l2:/dev/null: not a V4L2 device"), std::string::npos)
+      << v.err;
+  const CliRun k =
+      run("", "scan --headless --device freenect:5 --out '" + (dir / "o").string() + "'", dir);
+  EXPECT_EQ(k.exit_code, 4);
+  EXPECT_NE(k.err.find("freenect:5"), std::string::npos) << k.err;
+}
+
+}  // namespace
