@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/status.h"
+#include "ao_eval.h"
 #include "io/ply.h"
 #include "io/tum.h"
 #include "mesh_eval.h"
@@ -19,7 +20,9 @@ int run(int argc, char** argv) {
   CLI::App app{"aoscan-eval: compare aoscan outputs with ground truth"};
   app.require_subcommand(1);
 
-  std::string gt_path, est_path, mesh_path, truth_mesh_path;
+  std::string gt_path, est_path, mesh_path, truth_mesh_path, scene_name;
+  double t_max = 0.2;
+  std::size_t max_vertices = 20000;
   std::size_t delta = 1;
   double max_dt = 0.02, max_distance = 0.1, threshold = 0.01;
   bool json = false;
@@ -43,6 +46,16 @@ int run(int argc, char** argv) {
   mesh->add_option("--estimate", est_path, "estimated trajectory")->required()->check(CLI::ExistingFile);
   mesh->add_option("--max-distance", max_distance, "accuracy cap (m)")->capture_default_str();
   mesh->add_option("--threshold", threshold, "completeness distance (m)")->capture_default_str();
+
+  CLI::App* ao = app.add_subcommand(
+      "ao", "Pearson r of MESH's per-vertex AO against ray-traced obscurance (Eq. 1) on the exact "
+            "geometry of a synthetic scene; the trajectory's ATE alignment maps MESH into it");
+  ao->add_option("MESH", mesh_path, "mesh.ply with quality = AO")->required()->check(CLI::ExistingFile);
+  ao->add_option("--scene", scene_name, "synthetic scene name (corner, room, plane)")->required();
+  ao->add_option("--groundtruth", gt_path, "ground-truth trajectory")->required()->check(CLI::ExistingFile);
+  ao->add_option("--estimate", est_path, "estimated trajectory")->required()->check(CLI::ExistingFile);
+  ao->add_option("--t-max", t_max, "obscurance falloff distance t_max (m)")->capture_default_str();
+  ao->add_option("--vertices", max_vertices, "vertices compared at most")->capture_default_str();
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -68,6 +81,21 @@ int run(int argc, char** argv) {
         std::printf("RPE (%zu frame)      %.2f mm, %.3f deg (rmse)\n", delta, rpe.translation_rmse_m * 1e3,
                     rpe.rotation_rmse_deg);
         std::printf("alignment           rigid (rotation + translation, no scale)\n");
+      }
+    } else if (*ao) {
+      const AoEvalResult a = evaluate_mesh_ao(read_ply(mesh_path), AnalyticScene::make(scene_name),
+                                              ate.T_truth_estimate, t_max, max_vertices);
+      out["ao_vertices"] = a.vertices;
+      out["ao_off_surface"] = a.off_surface;
+      out["ao_pearson_r"] = a.pearson_r;
+      out["ao_rmse"] = a.rmse;
+      out["ao_mean_mesh"] = a.mean_mesh;
+      out["ao_mean_reference"] = a.mean_reference;
+      if (!json) {
+        std::printf("vertices compared   %zu (%zu farther than 2 cm from the scene skipped)\n",
+                    a.vertices, a.off_surface);
+        std::printf("AO Pearson r        %.3f (rmse %.3f; mean %.3f vs reference %.3f)\n", a.pearson_r,
+                    a.rmse, a.mean_mesh, a.mean_reference);
       }
     } else {
       const MeshEvalResult m = evaluate_mesh(read_ply(mesh_path), read_ply(truth_mesh_path),

@@ -1,0 +1,83 @@
+/// @file ao_eval.cpp
+/// @brief Mesh AO against ray-traced obscurance.
+#include "ao_eval.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ao/reference_ao.h"
+
+namespace aoscan::eval {
+
+double pearson(const std::vector<double>& a, const std::vector<double>& b) {
+  const std::size_t n = std::min(a.size(), b.size());
+  if (n < 2) return 0;
+  double ma = 0, mb = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    ma += a[i];
+    mb += b[i];
+  }
+  ma /= static_cast<double>(n);
+  mb /= static_cast<double>(n);
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
+}
+
+AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& scene,
+                              const Pose& T_scene_mesh, double t_max_m, std::size_t max_vertices,
+                              int strata, double max_offset_m) {
+  AoEvalResult r;
+  if (mesh.vertices.empty() || mesh.quality.size() != mesh.vertices.size()) return r;
+  const RayCaster cast = [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                                  double t_max) -> std::optional<double> {
+    Hit hit;
+    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
+    return hit.t;
+  };
+  const std::size_t step = std::max<std::size_t>(1, mesh.vertices.size() / std::max<std::size_t>(max_vertices, 1));
+  std::vector<double> mesh_ao, reference;
+  constexpr double kH = 1e-4;  // finite-difference step of the distance gradient (m)
+  for (std::size_t i = 0; i < mesh.vertices.size(); i += step) {
+    const Eigen::Vector3d p = T_scene_mesh * mesh.vertices[i].cast<double>();
+    const double sd = scene.signed_distance(p);
+    if (!std::isfinite(sd) || std::abs(sd) > max_offset_m) {
+      ++r.off_surface;
+      continue;
+    }
+    Eigen::Vector3d grad;
+    for (int a = 0; a < 3; ++a) {
+      Eigen::Vector3d e = Eigen::Vector3d::Zero();
+      e[a] = kH;
+      grad[a] = scene.signed_distance(p + e) - scene.signed_distance(p - e);
+    }
+    if (!(grad.norm() > 0)) {
+      ++r.off_surface;
+      continue;
+    }
+    const Eigen::Vector3d n = grad.normalized();
+    const Eigen::Vector3d on_surface = p - sd * n;
+    mesh_ao.push_back(mesh.quality[i]);
+    reference.push_back(reference_obscurance(cast, on_surface, n, t_max_m, strata, 1e-5));
+  }
+  r.vertices = mesh_ao.size();
+  if (r.vertices == 0) return r;
+  double sq = 0, sm = 0, sr = 0;
+  for (std::size_t i = 0; i < r.vertices; ++i) {
+    sq += (mesh_ao[i] - reference[i]) * (mesh_ao[i] - reference[i]);
+    sm += mesh_ao[i];
+    sr += reference[i];
+  }
+  const auto n = static_cast<double>(r.vertices);
+  r.rmse = std::sqrt(sq / n);
+  r.mean_mesh = sm / n;
+  r.mean_reference = sr / n;
+  r.pearson_r = pearson(mesh_ao, reference);
+  return r;
+}
+
+}  // namespace aoscan::eval

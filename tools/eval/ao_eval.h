@@ -1,0 +1,34 @@
+/// @file ao_eval.h
+/// @brief Agreement of a mesh's per-vertex AO with ray-traced obscurance (paper 000 Eq. 1) on the
+/// exact geometry of a synthetic scene.
+#pragma once
+
+#include <cstddef>
+
+#include "capture/synth_scene.h"
+#include "core/mesh.h"
+#include "core/pose.h"
+
+namespace aoscan::eval {
+
+struct AoEvalResult {
+  std::size_t vertices = 0;        ///< vertices compared
+  std::size_t off_surface = 0;     ///< sampled vertices skipped: farther than max_offset_m from the scene
+  double pearson_r = 0;            ///< correlation of mesh AO with the reference
+  double rmse = 0;                 ///< root-mean-square difference
+  double mean_mesh = 0, mean_reference = 0;
+};
+
+/// Pearson r of `mesh.quality` against Eq. 1 obscurance (rho = smoothstep(0, t_max, d), 1 without
+/// a hit within t_max, strata^2 cosine-weighted rays) at the scene point nearest each vertex, with
+/// the scene's exact normal there. Vertices are mapped into the scene frame by T_scene_mesh; at
+/// most max_vertices of them, evenly spread over the vertex list, are compared.
+AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& scene,
+                              const Pose& T_scene_mesh, double t_max_m,
+                              std::size_t max_vertices = 20000, int strata = 16,
+                              double max_offset_m = 0.02);
+
+/// Pearson correlation of two equally long sequences (0 when either is constant).
+double pearson(const std::vector<double>& a, const std::vector<double>& b);
+
+}  // namespace aoscan::eval
