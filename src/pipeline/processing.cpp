@@ -35,10 +35,13 @@ Status Processing::track(FrameWork& frame) {
   }
   std::shared_ptr<RaycastResult> raycast = raycasts_.acquire();
   frame.fusion = reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast, !paused_.load());
+  const IcpResult& icp = frame.fusion.icp;
+  spdlog::debug("frame {}: tracking {}, inliers {:.2f}, residual {:.1f} mm, moved {:.1f} mm {:.2f} deg",
+                frame.raw.sequence, to_string(frame.fusion.status), icp.inlier_ratio,
+                icp.rms_residual_m * 1e3, icp.translation_m * 1e3, icp.rotation_deg);
   if (frame.fusion.status == TrackingStatus::kLost) {
     ++frames_tracking_lost_;
     frame.raycast.reset();
-    spdlog::debug("frame {}: tracking lost ({} inliers)", frame.raw.sequence, frame.fusion.icp.inliers);
     return Status::ok();
   }
   frame.raycast = std::move(raycast);
