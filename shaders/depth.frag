@@ -9,9 +9,9 @@ uniform float u_depth_min;
 uniform float u_depth_max;
 uniform vec3 u_background;
 
-const vec3 kStops[5] = vec3[5](vec3(0.10, 0.10, 0.60), vec3(0.00, 0.70, 0.90),
-                               vec3(0.20, 0.80, 0.20), vec3(0.95, 0.85, 0.10),
-                               vec3(0.80, 0.10, 0.10));
+const vec3 kStops[5] = vec3[5](vec3(26.0, 26.0, 153.0), vec3(0.0, 179.0, 230.0),
+                               vec3(51.0, 204.0, 51.0), vec3(242.0, 217.0, 26.0),
+                               vec3(204.0, 26.0, 26.0));  // 8-bit values
 
 void main() {
   ivec2 size = textureSize(u_depth, 0);
@@ -25,5 +25,5 @@ void main() {
   float t = clamp((d - u_depth_min) / range, 0.0, 1.0);
   int i = min(int(t * 4.0), 3);
   float f = t * 4.0 - float(i);
-  frag_colour = vec4(kStops[i] + (kStops[i + 1] - kStops[i]) * f, 1.0);
+  frag_colour = vec4((kStops[i] + (kStops[i + 1] - kStops[i]) * f) / 255.0, 1.0);
 }

@@ -21,13 +21,10 @@
 namespace aoscan {
 namespace {
 
-/// The depth colour map's stops, evenly spaced from near (blue) to far (red); shaders/image.frag
-/// holds the same table.
-constexpr float kDepthStops[5][3] = {{0.10f, 0.10f, 0.60f},
-                                     {0.00f, 0.70f, 0.90f},
-                                     {0.20f, 0.80f, 0.20f},
-                                     {0.95f, 0.85f, 0.10f},
-                                     {0.80f, 0.10f, 0.10f}};
+/// The depth colour map's stops (8-bit values, evenly spaced from near = blue to far = red);
+/// shaders/depth.frag holds the same table.
+constexpr float kDepthStops[5][3] = {
+    {26, 26, 153}, {0, 179, 230}, {51, 204, 51}, {242, 217, 26}, {204, 26, 26}};
 
 Rgb8 grey(float c) {
   const std::uint8_t v = to_u8(c);
@@ -109,7 +106,8 @@ Rgb8 shade_depth(float depth_m, const ViewStyle& style) {
   Rgb8 out;
   std::uint8_t* channels[3] = {&out.r, &out.g, &out.b};
   for (int c = 0; c < 3; ++c)
-    *channels[c] = to_u8(kDepthStops[i][c] + (kDepthStops[i + 1][c] - kDepthStops[i][c]) * f);
+    *channels[c] =
+        to_u8((kDepthStops[i][c] + (kDepthStops[i + 1][c] - kDepthStops[i][c]) * f) / 255.0f);
   return out;
 }
 
