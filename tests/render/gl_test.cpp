@@ -2,8 +2,12 @@
 /// @brief The GL path against the CPU composite on analytic frames, shader compilation, and the
 /// live view's fall-backs. Needs a display with OpenGL 3.3 (tools/test.sh runs the suite under
 /// xvfb-run with Mesa's software rasteriser); skips with a message when there is none.
+#include <unistd.h>
 #include <chrono>
+
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 
@@ -269,7 +273,31 @@ TEST_F(LiveViewTest, BrokenShaderFallsBackHeadless) {
   EXPECT_FALSE(commands.quit_requested());  // falling back is not quitting
 }
 
+/// True when a libGL / libGLX / libEGL / libOpenGL is mapped into this process.
+bool gl_library_loaded() {
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  while (std::getline(maps, line))
+    for (const char* lib : {"/libGL.so", "/libGLX.so", "/libGLX_mesa", "/libEGL", "/libOpenGL"})
+      if (line.find(lib) != std::string::npos) return true;
+  return false;
+}
+
+TEST(LiveViewNoDisplay, NothingLinksLibGl) {
+  // GL functions come through glfwGetProcAddress, so no binary needs libGL at load time: a
+  // headless run never maps it. (The test binary uses every render function, GLFW included.)
+  const std::string out = ::testing::TempDir() + "/render_tests_ldd.txt";
+  const std::string cmd = "ldd /proc/" + std::to_string(::getpid()) + "/exe > " + out + " 2>&1";
+  if (std::system(cmd.c_str()) != 0) GTEST_SKIP() << "ldd is not available";
+  std::ifstream in(out);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("libglfw"), std::string::npos) << text;
+  for (const char* lib : {"libGL.so", "libGLX.so", "libOpenGL.so", "libEGL.so"})
+    EXPECT_EQ(text.find(lib), std::string::npos) << lib << " linked:\n" << text;
+}
+
 TEST(LiveViewNoDisplay, FallsBackHeadlessWithoutTouchingGl) {
+  const bool gl_before = gl_library_loaded();
   const char* old = std::getenv("DISPLAY");
   const std::string saved = old ? old : "";
   ::unsetenv("DISPLAY");
@@ -284,6 +312,9 @@ TEST(LiveViewNoDisplay, FallsBackHeadlessWithoutTouchingGl) {
   EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kUnavailable);
   EXPECT_NE(r.message.find("no display"), std::string::npos) << r.message;
   EXPECT_TRUE(r.gl_renderer.empty());
+  if (!gl_before) {
+    EXPECT_FALSE(gl_library_loaded()) << "the fall-back loaded a GL library";
+  }
 }
 
 TEST(LiveViewNoDisplay, UnreachableDisplayFallsBack) {
