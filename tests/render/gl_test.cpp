@@ -1,7 +1,9 @@
 /// @file gl_test.cpp
 /// @brief The GL path against the CPU composite on analytic frames, shader compilation, and the
 /// live view's fall-backs. Needs a display with OpenGL 3.3 (tools/test.sh runs the suite under
-/// xvfb-run with Mesa's software rasteriser); skips with a message when there is none.
+/// `xvfb-run -a -s "-noreset"` with Mesa's software rasteriser); skips with a message when there
+/// is none. Without -noreset Xvfb resets whenever its last client leaves, and a window opened
+/// during the reset fails: the helpers below retry once in that case.
 #include <unistd.h>
 #include <chrono>
 
@@ -50,6 +52,30 @@ Comparison compare(const Image<Rgb8>& a, const Image<Rgb8>& b) {
   return c;
 }
 
+/// True for the transient failure of connecting while Xvfb resets.
+bool display_resetting(const std::string& error) {
+  return error.find("Failed to open display") != std::string::npos;
+}
+
+std::unique_ptr<GlWindow> create_window(const WindowOptions& options, std::string& error) {
+  std::unique_ptr<GlWindow> window = GlWindow::create(options, error);
+  if (!window && display_resetting(error)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    window = GlWindow::create(options, error);
+  }
+  return window;
+}
+
+LiveViewResult run_view(const LiveViewOptions& options, const ViewFeed& feed,
+                        ViewCommandQueue& commands, const std::atomic<bool>& stop) {
+  LiveViewResult r = run_live_view(options, feed, commands, stop);
+  if (r.outcome == LiveViewResult::Outcome::kUnavailable && display_resetting(r.message)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    r = run_live_view(options, feed, commands, stop);
+  }
+  return r;
+}
+
 /// A hidden window whose context the tests draw with (into an offscreen framebuffer).
 class GlTest : public ::testing::Test {
  protected:
@@ -59,7 +85,7 @@ class GlTest : public ::testing::Test {
     options.width = 64;
     options.height = 64;
     options.visible = false;
-    window_ = GlWindow::create(options, error);
+    window_ = create_window(options, error);
     if (!window_) GTEST_SKIP() << "no OpenGL 3.3 context (" << error << "); run under xvfb-run";
   }
   void TearDown() override { window_.reset(); }
@@ -236,7 +262,7 @@ TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
   options.max_redraws = 5;
   for (int v = 0; v < kViewCount; ++v) {
     options.initial_view = static_cast<View>(v);
-    const LiveViewResult r = run_live_view(
+    const LiveViewResult r = run_view(
         options, [&] { return published; }, commands, stop);
     EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kStopped) << r.message;
     EXPECT_EQ(r.redraws, 5);
@@ -247,11 +273,21 @@ TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
   options.max_redraws = 0;
   options.max_redraw_hz = 200;
   LiveViewResult result;
+  std::atomic<int> feed_calls{0};  // one per loop iteration, after the window and shaders are up
+  std::atomic<bool> finished{false};
   std::thread render([&] {
-    result = run_live_view(
-        options, [&] { return published; }, commands, stop);
+    result = run_view(
+        options,
+        [&] {
+          ++feed_calls;
+          return published;
+        },
+        commands, stop);
+    finished = true;
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (feed_calls.load() < 3 && !finished.load() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   stop = true;
   render.join();
   EXPECT_EQ(result.outcome, LiveViewResult::Outcome::kStopped) << result.message;
@@ -265,7 +301,7 @@ TEST_F(LiveViewTest, BrokenShaderFallsBackHeadless) {
   options.window.visible = false;
   options.shader_overrides = {{"shaded.frag", "not glsl"}};
   const auto start = std::chrono::steady_clock::now();
-  const LiveViewResult r = run_live_view(options, nullptr, commands, stop);
+  const LiveViewResult r = run_view(options, nullptr, commands, stop);
   EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kUnavailable);
   EXPECT_NE(r.message.find("shaded.frag"), std::string::npos) << r.message;
   EXPECT_EQ(r.message.find('\n'), std::string::npos);

@@ -98,7 +98,7 @@ TEST(EmbeddedShaders, EveryProgramsFilesAreEmbeddedAndUsed) {
   EXPECT_EQ(on_disk, find_shader("shaded.frag"));
 }
 
-TEST(Cli, RunCommandsOfferSnapshotOptions) {
+TEST(SnapshotCli, RunCommandsOfferSnapshotOptions) {
   testing::ScratchDir dir;
   for (const char* cmd : {"replay", "scan"}) {
     const std::string out = dir.file(std::string(cmd) + ".txt");
