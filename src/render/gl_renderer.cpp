@@ -74,6 +74,7 @@ void GlViewRenderer::release() {
   programs_.clear();
   gl_->DeleteTextures(kTextureCount, textures_.data());
   textures_ = {};
+  texture_sizes_ = {};
   gl_->DeleteVertexArrays(1, &empty_vao_);
   gl_->DeleteVertexArrays(1, &points_vao_);
   gl_->DeleteBuffers(1, &points_vbo_);
@@ -169,8 +170,18 @@ void GlViewRenderer::upload_float(Texture texture, const Image<float>* image, fl
   } else {
     std::fill(staging_.begin(), staging_.end(), no_data);
   }
+  set_texture(texture, GL_R32F, GL_RED, GL_FLOAT, width, height, staging_.data());
+}
+
+void GlViewRenderer::set_texture(Texture texture, GLint internal_format, GLenum format, GLenum type,
+                                 int width, int height, const void* pixels) {
   gl_->BindTexture(GL_TEXTURE_2D, textures_[texture]);
-  gl_->TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, width, height, 0, GL_RED, GL_FLOAT, staging_.data());
+  if (texture_sizes_[texture] == std::array<int, 2>{width, height}) {
+    gl_->TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, height, format, type, pixels);
+  } else {
+    gl_->TexImage2D(GL_TEXTURE_2D, 0, internal_format, width, height, 0, format, type, pixels);
+    texture_sizes_[texture] = {width, height};
+  }
 }
 
 void GlViewRenderer::upload(const ViewFrame& frame) {
@@ -194,8 +205,7 @@ void GlViewRenderer::upload(const ViewFrame& frame) {
       if (src[i].allFinite())
         for (int c = 0; c < 3; ++c) staging_[3 * i + c] = src[i][c];
   }
-  gl_->BindTexture(GL_TEXTURE_2D, textures_[kNormals]);
-  gl_->TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, width, height, 0, GL_RGB, GL_FLOAT, staging_.data());
+  set_texture(kNormals, GL_RGB32F, GL_RGB, GL_FLOAT, width, height, staging_.data());
   frame_width_ = width;
   frame_height_ = height;
 
@@ -302,9 +312,8 @@ void GlViewRenderer::draw_overlay(const Image<Rgba8>& overlay, int x, int y,
   const GlApi& gl = *gl_;
   static_assert(sizeof(Rgba8) == 4, "overlay rows are uploaded as packed RGBA");
   gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  gl.BindTexture(GL_TEXTURE_2D, textures_[kOverlay]);
-  gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, overlay.width(), overlay.height(), 0, GL_RGBA,
-                GL_UNSIGNED_BYTE, overlay.data());
+  set_texture(kOverlay, GL_RGBA8, GL_RGBA, GL_UNSIGNED_BYTE, overlay.width(), overlay.height(),
+              overlay.data());
   gl.Viewport(x, framebuffer_height - y - overlay.height(), overlay.width(), overlay.height());
   const GLuint program = programs_.at("overlay");
   gl.UseProgram(program);

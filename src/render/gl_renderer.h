@@ -74,10 +74,14 @@ class GlViewRenderer {
   void upload_float(Texture texture, const Image<float>* image, float no_data, int width,
                     int height);
   void bind_texture(GLuint program, const char* uniform, Texture texture, int unit);
+  /// Fills `texture` from `pixels`, reallocating its storage only when the size changed.
+  void set_texture(Texture texture, GLint internal_format, GLenum format, GLenum type, int width,
+                   int height, const void* pixels);
 
   const GlApi* gl_ = nullptr;
   std::map<std::string, GLuint> programs_;
   std::array<GLuint, kTextureCount> textures_{};
+  std::array<std::array<int, 2>, kTextureCount> texture_sizes_{};
   GLuint empty_vao_ = 0;
   GLuint points_vao_ = 0;
   GLuint points_vbo_ = 0;

@@ -161,6 +161,30 @@ TEST_F(GlTest, ExactGreyAndNormalColours) {
   EXPECT_EQ(normals(0, 0).b, 255);
 }
 
+TEST_F(GlTest, ReuploadsOfSameAndOtherSizesShowTheNewFrame) {
+  const GlApi& gl = window_->gl();
+  std::string error;
+  GlViewRenderer renderer;
+  ASSERT_TRUE(renderer.init(gl, error)) << error;
+  GlOffscreenTarget target;
+  ASSERT_TRUE(target.create(gl, 40, 30, error)) << error;
+  const ViewStyle style;
+  for (const auto& [w, h] : {std::pair{40, 30}, std::pair{40, 30}, std::pair{20, 10}}) {
+    ViewFrame frame = testing::sphere_wall_frame(w, h);
+    frame.ssao.fill(0.1f * static_cast<float>(w + h) / 70.0f);
+    target.bind();
+    gl.Viewport(0, 0, 40, 30);
+    renderer.upload(frame);
+    EXPECT_EQ(renderer.frame_width(), w);
+    renderer.draw(View::kSsao, {0, 0, w, h}, style, OrbitCamera{});
+    Image<Rgb8> gpu;
+    target.read(gpu);
+    // The view's rectangle is the bottom-left w x h of the target: image row h - 1 of the frame
+    // is target row 29.
+    EXPECT_EQ(gpu(0, 29), shade_ssao(frame.ssao(0, h - 1), style)) << w << "x" << h;
+  }
+}
+
 TEST_F(GlTest, ImageRowsAreNotFlipped) {
   ViewFrame frame;
   frame.intrinsics.width = 4;
