@@ -25,6 +25,8 @@ struct RunArgs {
   bool strict = false;
   bool no_progress = false;
   bool live = false;  ///< scan: a live camera is required
+  std::string snapshot_dir;      ///< --snapshot: CPU-composited PNGs of the views go here
+  std::size_t snapshot_every = 1;  ///< --snapshot-every: every N-th fused frame
 };
 
 struct RecordArgs {

@@ -47,6 +47,14 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
                "pace replay by the recorded timestamps, dropping frames like a live camera");
   cmd.add_flag("--strict", args.strict, "an unreadable frame is an error (exit 3), not a skip");
   cmd.add_flag("--no-progress", args.no_progress, "no progress line on stderr");
+  CLI::Option* snapshot =
+      cmd.add_option("--snapshot", args.snapshot_dir,
+                     "write PNGs of the views (shaded, ssao, normals, depth, orbit) to DIR; "
+                     "composited on the CPU, so also with --headless");
+  cmd.add_option("--snapshot-every", args.snapshot_every,
+                 "with --snapshot: every N-th fused frame (default 1)")
+      ->check(CLI::PositiveNumber)
+      ->needs(snapshot);
 }
 
 std::string one_line(std::string s) {

@@ -1,0 +1,304 @@
+/// @file composite.cpp
+/// @brief CPU shading of the views (the shaders' reference), the orbit point splatter and the RGB
+/// PNG writer.
+#include "render/composite.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include <png.h>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "core/status.h"
+
+namespace aoscan {
+namespace {
+
+/// The depth colour map's stops (8-bit values, evenly spaced from near = blue to far = red);
+/// shaders/depth.frag holds the same table.
+constexpr float kDepthStops[5][3] = {
+    {26, 26, 153}, {0, 179, 230}, {51, 204, 51}, {242, 217, 26}, {204, 26, 26}};
+
+Rgb8 grey(float c) {
+  const std::uint8_t v = to_u8(c);
+  return {v, v, v};
+}
+
+bool has_surface(float depth_m, const Eigen::Vector3f& n) {
+  return depth_m > 0.0f && (n.x() != 0.0f || n.y() != 0.0f || n.z() != 0.0f);
+}
+
+float diffuse(const Eigen::Vector3f& n, const Eigen::Vector3f& to_light, float ambient) {
+  const float lambert =
+      std::max(0.0f, n.x() * to_light.x() + n.y() * to_light.y() + n.z() * to_light.z());
+  return ambient + (1.0f - ambient) * lambert;
+}
+
+}  // namespace
+
+Eigen::Vector3f vertex_normal(const TriangleMesh& mesh, std::size_t i) {
+  if (mesh.normals.size() != mesh.vertices.size()) return Eigen::Vector3f::Zero();
+  const Eigen::Vector3f& n = mesh.normals[i];
+  return n.allFinite() ? n : Eigen::Vector3f::Zero();
+}
+
+float vertex_ao(const TriangleMesh& mesh, std::size_t i) {
+  if (mesh.quality.size() != mesh.vertices.size()) return 1.0f;
+  const float q = mesh.quality[i];
+  return q >= 0.0f ? std::min(q, 1.0f) : 1.0f;
+}
+
+const char* view_name(View view) {
+  switch (view) {
+    case View::kShaded:
+      return "shaded";
+    case View::kSsao:
+      return "ssao";
+    case View::kNormals:
+      return "normals";
+    case View::kDepth:
+      return "depth";
+    case View::kOrbit:
+      return "orbit";
+  }
+  return "unknown";
+}
+
+View next_view(View view) {
+  return static_cast<View>((static_cast<int>(view) + 1) % kViewCount);
+}
+
+std::uint8_t to_u8(float c) {
+  if (!(c > 0.0f)) return 0;  // also NaN
+  if (c >= 1.0f) return 255;
+  return static_cast<std::uint8_t>(std::floor(c * 255.0f + 0.5f));
+}
+
+Rgb8 shade_mvao(float depth_m, const Eigen::Vector3f& n, float mvao, const ViewStyle& style) {
+  if (!has_surface(depth_m, n)) return style.background;
+  const float ao = mvao >= 0.0f ? std::min(mvao, 1.0f) : 1.0f;  // NaN: unobserved
+  return grey(ao * diffuse(n, style.to_light_camera, style.ambient));
+}
+
+Rgb8 shade_ssao(float ssao, const ViewStyle& style) {
+  if (!(ssao >= 0.0f)) return style.background;
+  return grey(std::min(ssao, 1.0f));
+}
+
+Rgb8 shade_normal(float depth_m, const Eigen::Vector3f& n, const ViewStyle& style) {
+  if (!has_surface(depth_m, n)) return style.background;
+  return {to_u8(0.5f + 0.5f * n.x()), to_u8(0.5f - 0.5f * n.y()), to_u8(0.5f - 0.5f * n.z())};
+}
+
+Rgb8 shade_depth(float depth_m, const ViewStyle& style) {
+  if (!(depth_m > 0.0f)) return style.background;
+  const float range = std::max(style.depth_max_m - style.depth_min_m, 1e-6f);
+  const float t = std::clamp((depth_m - style.depth_min_m) / range, 0.0f, 1.0f);
+  const int i = std::min(static_cast<int>(t * 4.0f), 3);
+  const float f = t * 4.0f - static_cast<float>(i);
+  Rgb8 out;
+  std::uint8_t* channels[3] = {&out.r, &out.g, &out.b};
+  for (int c = 0; c < 3; ++c)
+    *channels[c] =
+        to_u8((kDepthStops[i][c] + (kDepthStops[i + 1][c] - kDepthStops[i][c]) * f) / 255.0f);
+  return out;
+}
+
+OrbitCamera fit_orbit(const TriangleMesh& mesh) {
+  OrbitCamera camera;
+  if (mesh.empty()) return camera;
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = -lo;
+  for (const Eigen::Vector3f& v : mesh.vertices) {
+    if (!v.allFinite()) continue;
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  if (!(lo.array() <= hi.array()).all()) return camera;
+  camera.target_world = 0.5f * (lo + hi);
+  const float radius = std::max(0.5f * (hi - lo).norm(), 0.05f);
+  camera.distance_m = 1.1f * radius / std::sin(0.5f * camera.fov_y_rad);
+  return camera;
+}
+
+Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
+                                      Eigen::Matrix4f* view) {
+  const float pitch = std::clamp(camera.pitch_rad, -kOrbitMaxPitchRad, kOrbitMaxPitchRad);
+  const glm::vec3 forward(std::sin(camera.yaw_rad) * std::cos(pitch), std::sin(pitch),
+                          std::cos(camera.yaw_rad) * std::cos(pitch));
+  const glm::vec3 target(camera.target_world.x(), camera.target_world.y(), camera.target_world.z());
+  const float distance = std::max(camera.distance_m, 1e-3f);
+  const glm::mat4 eye_from_world =
+      glm::lookAt(target - distance * forward, target, glm::vec3(0.0f, -1.0f, 0.0f));
+  const glm::mat4 clip_from_eye = glm::perspective(camera.fov_y_rad, std::max(aspect, 1e-3f),
+                                                   0.01f * distance, 100.0f * distance);
+  const glm::mat4 clip_from_world = clip_from_eye * eye_from_world;
+  if (view) *view = Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(eye_from_world));
+  return Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(clip_from_world));
+}
+
+void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
+                     const ViewStyle& style) {
+  const int width = out.width();
+  const int height = out.height();
+  out.fill(style.background);
+  if (width == 0 || height == 0) return;
+  Eigen::Matrix4f eye_from_world;
+  const Eigen::Matrix4f clip_from_world = orbit_clip_from_world(
+      camera, static_cast<float>(width) / static_cast<float>(height), &eye_from_world);
+  // The light in GL eye coordinates (y up, z backwards) is the camera-frame light flipped.
+  const Eigen::Vector3f to_light_eye(style.to_light_camera.x(), -style.to_light_camera.y(),
+                                     -style.to_light_camera.z());
+  const Eigen::Matrix3f eye_R_world = eye_from_world.topLeftCorner<3, 3>();
+  const bool has_normals = !mesh.normals.empty();
+  const float half = 0.5f * style.point_size_px;
+  thread_local std::vector<float> depth;
+  depth.assign(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::infinity());
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Eigen::Vector4f clip = clip_from_world * mesh.vertices[i].homogeneous();
+    const float w = clip.w();
+    if (!(w > 0.0f) || std::abs(clip.x()) > w || std::abs(clip.y()) > w || std::abs(clip.z()) > w)
+      continue;  // GL clips a point by its centre
+    const float xw = (clip.x() / w * 0.5f + 0.5f) * static_cast<float>(width);
+    const float yw = (clip.y() / w * 0.5f + 0.5f) * static_cast<float>(height);
+    const float zw = clip.z() / w * 0.5f + 0.5f;
+    float shade = vertex_ao(mesh, i);
+    const Eigen::Vector3f n_world = has_normals ? vertex_normal(mesh, i) : Eigen::Vector3f::Zero();
+    if (!n_world.isZero(0.0f))
+      shade *= diffuse((eye_R_world * n_world).normalized(), to_light_eye, style.ambient);
+    const Rgb8 colour = grey(shade);
+    // Pixels whose centres (x + 0.5, y + 0.5) lie in [xw - half, xw + half) (GL point rule).
+    const int x0 = std::max(0, static_cast<int>(std::ceil(xw - half - 0.5f)));
+    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(xw + half - 0.5f)) - 1);
+    const int y0 = std::max(0, static_cast<int>(std::ceil(yw - half - 0.5f)));
+    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(yw + half - 0.5f)) - 1);
+    for (int y = y0; y <= y1; ++y) {
+      const int row = height - 1 - y;  // GL rows go up, image rows go down
+      for (int x = x0; x <= x1; ++x) {
+        float& d = depth[static_cast<std::size_t>(row) * width + x];
+        if (zw < d) {
+          d = zw;
+          out(x, row) = colour;
+        }
+      }
+    }
+  }
+}
+
+void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const ViewStyle& style) {
+  const int width = frame.intrinsics.width;
+  const int height = frame.intrinsics.height;
+  if (out.width() != width || out.height() != height) out.resize(width, height);
+  if (view == View::kOrbit) {
+    if (frame.surface && !frame.surface->empty()) {
+      composite_orbit(*frame.surface, fit_orbit(*frame.surface), out, style);
+    } else {
+      out.fill(style.background);
+    }
+    return;
+  }
+  const auto fits = [&](const auto& image) {
+    return image.width() == width && image.height() == height;
+  };
+  const bool depth_ok = fits(frame.depth_m);
+  const bool normals_ok = depth_ok && fits(frame.normals);
+  const Image<float>& depth_source = fits(frame.raw_depth_m) ? frame.raw_depth_m : frame.depth_m;
+  const bool depth_source_ok = fits(depth_source);
+  const bool ssao_ok = fits(frame.ssao);
+  const bool mvao_ok = fits(frame.mvao);
+  const float kNoData = std::numeric_limits<float>::quiet_NaN();
+  const Eigen::Vector3f kNoNormal = Eigen::Vector3f::Zero();
+  for (int y = 0; y < height; ++y) {
+    Rgb8* dst = out.row(y);
+    for (int x = 0; x < width; ++x) {
+      const float d = depth_ok ? frame.depth_m(x, y) : 0.0f;
+      const Eigen::Vector3f& n = normals_ok ? frame.normals(x, y) : kNoNormal;
+      switch (view) {
+        case View::kShaded:
+          dst[x] = shade_mvao(d, n, mvao_ok ? frame.mvao(x, y) : kNoData, style);
+          break;
+        case View::kSsao:
+          dst[x] = shade_ssao(ssao_ok ? frame.ssao(x, y) : kNoData, style);
+          break;
+        case View::kNormals:
+          dst[x] = shade_normal(d, n, style);
+          break;
+        case View::kDepth:
+          dst[x] = shade_depth(depth_source_ok ? depth_source(x, y) : 0.0f, style);
+          break;
+        case View::kOrbit:
+          break;
+      }
+    }
+  }
+}
+
+namespace {
+
+struct PngWriteState {
+  char message[200] = {};
+};
+
+void on_png_error(png_structp png, png_const_charp message) {
+  auto* state = static_cast<PngWriteState*>(png_get_error_ptr(png));
+  std::snprintf(state->message, sizeof state->message, "%s", message);
+  png_longjmp(png, 1);
+}
+
+void on_png_warning(png_structp, png_const_charp) {}
+
+/// The setjmp-protected encode; only plain locals live here.
+bool encode_rgb(PngWriteState& state, std::FILE* file, const Image<Rgb8>& image) {
+  static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are written as packed RGB");
+  png_structp png =
+      png_create_write_struct(PNG_LIBPNG_VER_STRING, &state, on_png_error, on_png_warning);
+  if (!png) return false;
+  png_infop info = png_create_info_struct(png);
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    return false;
+  }
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    return false;
+  }
+  png_init_io(png, file);
+  png_set_compression_level(png, 3);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(image.width()),
+               static_cast<png_uint_32>(image.height()), 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height(); ++y)
+    png_write_row(png, reinterpret_cast<png_const_bytep>(image.row(y)));
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return true;
+}
+
+}  // namespace
+
+void write_rgb_png(const std::string& path, const Image<Rgb8>& image) {
+  if (image.empty()) throw usage_error(path + ": refusing to write an empty image");
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno));
+  PngWriteState state;
+  const bool encoded = encode_rgb(state, file, image);
+  const bool stream_failed = std::ferror(file) != 0;
+  const int saved_errno = errno;
+  const bool closed = std::fclose(file) == 0;
+  if (!encoded || stream_failed || !closed) {
+    const std::string why = !encoded && state.message[0]
+                                ? state.message
+                                : std::strerror(saved_errno ? saved_errno : EIO);
+    throw Error(ExitCode::kFailure, path + ": cannot write PNG: " + why);
+  }
+}
+
+}  // namespace aoscan

@@ -1,0 +1,74 @@
+/// @file view_frame.h
+/// @brief What the live view and the snapshots show: one immutable product per fused frame
+/// (raycast maps, SSAO, MVAO, raw depth, HUD numbers, the fused surface), filled by the pipeline.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/mesh.h"
+#include "core/pose.h"
+
+namespace aoscan {
+
+/// An 8-bit sRGB-less RGB pixel (values written to PNGs and read back from GL as they are).
+struct Rgb8 {
+  std::uint8_t r = 0;
+  std::uint8_t g = 0;
+  std::uint8_t b = 0;
+  bool operator==(const Rgb8& o) const { return r == o.r && g == o.g && b == o.b; }
+  bool operator!=(const Rgb8& o) const { return !(*this == o); }
+};
+
+/// The views the live window cycles through with `v` (in this order) and the snapshots write.
+enum class View {
+  kShaded,   ///< model raycast: grey = MVAO x diffuse shading from the normals
+  kSsao,     ///< the frame's SSAO as grey
+  kNormals,  ///< raycast normals as colours
+  kDepth,    ///< raw depth through a colour map
+  kOrbit,    ///< free orbit view of the fused surface (points shaded by their AO)
+};
+inline constexpr int kViewCount = 5;
+
+/// Short lower-case name used in snapshot file names and the HUD ("shaded", "ssao", ...).
+const char* view_name(View view);
+/// The view after `view` in the cycle (kOrbit wraps to kShaded).
+View next_view(View view);
+
+/// Numbers the HUD shows; filled by the pipeline owner.
+struct HudStats {
+  double fps = 0.0;  ///< frames fused per second, recent average
+  std::vector<std::pair<std::string, double>> stage_ms;  ///< per stage: name, recent ms per frame
+  std::size_t frames_processed = 0;
+  std::size_t frames_dropped = 0;
+  bool integration_paused = false;
+};
+
+/// One fused frame as the renderer sees it. Every image has the size of `intrinsics` (the raw depth
+/// may be empty when not published). Camera frame: x right, y down, z forward (metres).
+struct ViewFrame {
+  std::uint64_t sequence = 0;  ///< source frame index
+  double timestamp_s = 0.0;    ///< source timestamp (s)
+  Pose T_world_camera;         ///< pose of the raycast
+  Intrinsics intrinsics;
+  Image<float> depth_m;               ///< model raycast depth (m), 0 = no surface
+  Image<Eigen::Vector3f> normals;     ///< raycast unit normals, camera frame; zero = invalid
+  Image<float> ssao;                  ///< this frame's SSAO in [0, 1], 1 = open
+  Image<float> mvao;                  ///< AO from the MVAO grid in [0, 1]; NaN = unobserved
+  Image<float> raw_depth_m;           ///< filtered input depth (m), 0 = invalid
+  std::string tracking_state = "ok";  ///< e.g. "ok", "lost", "paused"
+  HudStats hud;
+  /// The fused surface in the world frame with per-vertex AO (quality) and normals, for the orbit
+  /// view; null or empty until the pipeline exports one. Shared: publishing it is cheap.
+  std::shared_ptr<const TriangleMesh> surface;
+};
+
+}  // namespace aoscan

@@ -1,0 +1,274 @@
+/// @file composite_test.cpp
+/// @brief Exact answers of the CPU composite (the GL reference): grey levels, normal colours,
+/// colour-map stops, no-data pixels, the orbit splatter and the RGB PNG writer.
+#include "render/composite.h"
+
+#include <png.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/status.h"
+#include "io/scratch_dir.h"
+#include "render/render_test_util.h"
+
+namespace aoscan {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+/// A 4x2 frame: every pixel a camera-facing plane at 1 m.
+ViewFrame plane_frame(float ao) {
+  ViewFrame f;
+  f.intrinsics.width = 4;
+  f.intrinsics.height = 2;
+  f.depth_m.resize(4, 2, 1.0f);
+  f.normals.resize(4, 2, Eigen::Vector3f(0, 0, -1));
+  f.ssao.resize(4, 2, ao);
+  f.mvao.resize(4, 2, ao);
+  return f;
+}
+
+ViewStyle head_on_light() {
+  ViewStyle s;
+  s.to_light_camera = Eigen::Vector3f(0, 0, -1);
+  return s;
+}
+
+TEST(Composite, ToU8RoundsAndClamps) {
+  EXPECT_EQ(to_u8(0.0f), 0);
+  EXPECT_EQ(to_u8(0.5f), 128);  // 127.5 rounds up
+  EXPECT_EQ(to_u8(1.0f), 255);
+  EXPECT_EQ(to_u8(-3.0f), 0);
+  EXPECT_EQ(to_u8(7.0f), 255);
+  EXPECT_EQ(to_u8(kNaN), 0);
+  EXPECT_EQ(to_u8(100.0f / 255.0f), 100);
+}
+
+TEST(Composite, ShadedIsAoTimesDiffuse) {
+  const ViewStyle style = head_on_light();
+  Image<Rgb8> out;
+  composite_view(plane_frame(0.5f), View::kShaded, out, style);
+  ASSERT_EQ(out.width(), 4);
+  ASSERT_EQ(out.height(), 2);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) EXPECT_EQ(out(x, y), (Rgb8{128, 128, 128}));
+  // A normal at 60 degrees to the light: diffuse = ambient + (1 - ambient) * 0.5.
+  const Eigen::Vector3f n60(std::sin(1.0471976f), 0.0f, -std::cos(1.0471976f));
+  EXPECT_EQ(shade_mvao(1.0f, n60, 1.0f, style).r, to_u8(0.25f + 0.75f * 0.5f));
+  // Facing away: only the ambient term, scaled by AO.
+  EXPECT_EQ(shade_mvao(1.0f, {0, 0, 1}, 0.8f, style).g, to_u8(0.8f * 0.25f));
+  // Unobserved (NaN, negative) AO shades as open; AO above 1 is clamped.
+  EXPECT_EQ(shade_mvao(1.0f, {0, 0, -1}, kNaN, style).b, 255);
+  EXPECT_EQ(shade_mvao(1.0f, {0, 0, -1}, -1.0f, style).b, 255);
+  EXPECT_EQ(shade_mvao(1.0f, {0, 0, -1}, 1.5f, style).b, 255);
+  // No surface: zero depth or zero normal.
+  EXPECT_EQ(shade_mvao(0.0f, {0, 0, -1}, 0.5f, style), style.background);
+  EXPECT_EQ(shade_mvao(1.0f, {0, 0, 0}, 0.5f, style), style.background);
+}
+
+TEST(Composite, SsaoIsGrey) {
+  const ViewStyle style;
+  Image<Rgb8> out;
+  composite_view(plane_frame(0.25f), View::kSsao, out, style);
+  EXPECT_EQ(out(3, 1), (Rgb8{64, 64, 64}));
+  EXPECT_EQ(shade_ssao(kNaN, style), style.background);
+  EXPECT_EQ(shade_ssao(-0.1f, style), style.background);
+  EXPECT_EQ(shade_ssao(2.0f, style), (Rgb8{255, 255, 255}));
+}
+
+TEST(Composite, NormalColours) {
+  const ViewStyle style;
+  EXPECT_EQ(shade_normal(1.0f, {0, 0, -1}, style), (Rgb8{128, 128, 255}));  // facing the camera
+  EXPECT_EQ(shade_normal(1.0f, {1, 0, 0}, style), (Rgb8{255, 128, 128}));   // right
+  EXPECT_EQ(shade_normal(1.0f, {0, -1, 0}, style), (Rgb8{128, 255, 128}));  // up (y is down)
+  EXPECT_EQ(shade_normal(0.0f, {0, 0, -1}, style), style.background);
+}
+
+TEST(Composite, DepthColourMapStops) {
+  ViewStyle style;
+  style.depth_min_m = 1.0f;
+  style.depth_max_m = 5.0f;  // stops at 1, 2, 3, 4, 5 m
+  EXPECT_EQ(shade_depth(1.0f, style), (Rgb8{26, 26, 153}));
+  EXPECT_EQ(shade_depth(0.5f, style), (Rgb8{26, 26, 153}));  // clamped below
+  EXPECT_EQ(shade_depth(2.0f, style), (Rgb8{0, 179, 230}));
+  EXPECT_EQ(shade_depth(3.0f, style), (Rgb8{51, 204, 51}));
+  EXPECT_EQ(shade_depth(4.0f, style), (Rgb8{242, 217, 26}));
+  EXPECT_EQ(shade_depth(5.0f, style), (Rgb8{204, 26, 26}));
+  EXPECT_EQ(shade_depth(9.0f, style), (Rgb8{204, 26, 26}));  // clamped above
+  const Rgb8 half = shade_depth(1.5f, style);                // halfway between stops 0 and 1
+  EXPECT_EQ(half.r, 13);
+  EXPECT_NEAR(half.g, 102.5, 0.5);
+  EXPECT_NEAR(half.b, 191.5, 0.5);
+  EXPECT_EQ(shade_depth(0.0f, style), style.background);
+  EXPECT_EQ(shade_depth(kNaN, style), style.background);
+}
+
+TEST(Composite, DepthViewPrefersRawDepth) {
+  ViewFrame f = plane_frame(0.5f);
+  ViewStyle style;
+  Image<Rgb8> out;
+  composite_view(f, View::kDepth, out, style);
+  EXPECT_EQ(out(0, 0), shade_depth(1.0f, style));  // no raw depth: the raycast
+  f.raw_depth_m.resize(4, 2, 3.0f);
+  f.raw_depth_m(1, 0) = 0.0f;
+  composite_view(f, View::kDepth, out, style);
+  EXPECT_EQ(out(0, 0), shade_depth(3.0f, style));
+  EXPECT_EQ(out(1, 0), style.background);
+}
+
+TEST(Composite, MissingOrMismatchedImagesAreNoData) {
+  ViewFrame f;
+  f.intrinsics.width = 3;
+  f.intrinsics.height = 3;
+  f.depth_m.resize(2, 2, 1.0f);  // wrong size
+  const ViewStyle style;
+  Image<Rgb8> out;
+  for (View v : {View::kShaded, View::kSsao, View::kNormals, View::kDepth, View::kOrbit}) {
+    composite_view(f, v, out, style);
+    ASSERT_EQ(out.width(), 3) << view_name(v);
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 3; ++x) EXPECT_EQ(out(x, y), style.background) << view_name(v);
+  }
+}
+
+TEST(Composite, ViewCycle) {
+  View v = View::kShaded;
+  const char* expected[] = {"ssao", "normals", "depth", "orbit", "shaded"};
+  for (const char* name : expected) {
+    v = next_view(v);
+    EXPECT_STREQ(view_name(v), name);
+  }
+}
+
+TEST(Orbit, FitFramesTheBoundingBox) {
+  TriangleMesh mesh;
+  mesh.vertices = {{-1, 0, 2}, {1, 2, 4}};
+  const OrbitCamera camera = fit_orbit(mesh);
+  EXPECT_TRUE(camera.target_world.isApprox(Eigen::Vector3f(0, 1, 3)));
+  const float radius = 0.5f * std::sqrt(12.0f);
+  EXPECT_NEAR(camera.distance_m, 1.1f * radius / std::sin(0.5f * camera.fov_y_rad), 1e-5f);
+  // Every vertex is inside the view.
+  const Eigen::Matrix4f m = orbit_clip_from_world(camera, 1.0f);
+  for (const auto& v : mesh.vertices) {
+    const Eigen::Vector4f c = m * v.homogeneous();
+    EXPECT_LT(std::abs(c.x()), c.w());
+    EXPECT_LT(std::abs(c.y()), c.w());
+  }
+}
+
+TEST(Orbit, ZeroAnglesLookAlongPlusZWithWorldYDown) {
+  OrbitCamera camera;
+  camera.target_world = {0, 0, 5};
+  camera.distance_m = 5;  // the eye at the origin, like the first camera
+  const Eigen::Matrix4f m = orbit_clip_from_world(camera, 1.0f);
+  const Eigen::Vector4f ahead = m * Eigen::Vector4f(0, 0, 5, 1);
+  EXPECT_NEAR(ahead.x() / ahead.w(), 0.0f, 1e-6f);
+  EXPECT_NEAR(ahead.y() / ahead.w(), 0.0f, 1e-6f);
+  const Eigen::Vector4f below = m * Eigen::Vector4f(0, 1, 5, 1);  // world +y is down
+  EXPECT_LT(below.y() / below.w(), 0.0f);
+  const Eigen::Vector4f right = m * Eigen::Vector4f(1, 0, 5, 1);  // camera +x is right
+  EXPECT_GT(right.x() / right.w(), 0.0f);
+}
+
+TEST(Orbit, PointSplatCoversTheGlSquareAndKeepsTheNearest) {
+  OrbitCamera camera;
+  camera.target_world = {0, 0, 5};
+  camera.distance_m = 5;
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 6}, {0, 0, 5}, {0, 0, 7}};  // all project onto the image centre
+  mesh.quality = {0.2f, 0.6f, 1.0f};                  // the middle one is nearest
+  ViewStyle style;
+  Image<Rgb8> out(8, 6);
+  composite_orbit(mesh, camera, out, style);
+  int covered = 0;
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 8; ++x) {
+      if (out(x, y) == style.background) continue;
+      ++covered;
+      EXPECT_TRUE((x == 3 || x == 4) && (y == 2 || y == 3)) << x << "," << y;
+      EXPECT_EQ(out(x, y), (Rgb8{153, 153, 153}));  // 0.6 grey, no normals
+    }
+  EXPECT_EQ(covered, 4);
+  // A vertex behind the eye is clipped.
+  mesh.vertices = {{0, 0, -1}};
+  mesh.quality = {0.5f};
+  composite_orbit(mesh, camera, out, style);
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 8; ++x) EXPECT_EQ(out(x, y), style.background);
+}
+
+TEST(Orbit, VertexInputsAreSanitised) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 1}, {0, 0, 2}};
+  EXPECT_EQ(vertex_ao(mesh, 0), 1.0f);  // no quality
+  EXPECT_TRUE(vertex_normal(mesh, 0).isZero());
+  mesh.quality = {kNaN, 3.0f};
+  mesh.normals = {{kNaN, 0, 0}, {0, 1, 0}};
+  EXPECT_EQ(vertex_ao(mesh, 0), 1.0f);
+  EXPECT_EQ(vertex_ao(mesh, 1), 1.0f);
+  EXPECT_TRUE(vertex_normal(mesh, 0).isZero());
+  EXPECT_EQ(vertex_normal(mesh, 1), Eigen::Vector3f(0, 1, 0));
+}
+
+TEST(Composite, OrbitViewOfAFrameUsesItsSurface) {
+  ViewFrame f = testing::sphere_wall_frame(64, 48);
+  Image<Rgb8> out;
+  composite_view(f, View::kOrbit, out);
+  int covered = 0;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) covered += out(x, y) != ViewStyle{}.background;
+  EXPECT_EQ(covered, 0);  // no surface yet
+  f.surface = testing::sphere_points({0, 0, 2}, 0.5f, 40);
+  composite_view(f, View::kOrbit, out);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) covered += out(x, y) != ViewStyle{}.background;
+  EXPECT_GT(covered, 300);
+  EXPECT_EQ(out(32, 24) == ViewStyle{}.background, false);  // the sphere's middle
+}
+
+/// Reads an 8-bit RGB PNG with libpng (test-side decoder).
+bool read_rgb_png(const std::string& path, Image<Rgb8>& out) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) return false;
+  image.format = PNG_FORMAT_RGB;
+  out.resize(static_cast<int>(image.width), static_cast<int>(image.height));
+  const bool ok = png_image_finish_read(&image, nullptr, out.data(), 0, nullptr) != 0;
+  png_image_free(&image);
+  return ok;
+}
+
+TEST(RgbPng, RoundTrip) {
+  testing::ScratchDir dir;
+  Image<Rgb8> image(5, 3);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x)
+      image(x, y) = {static_cast<std::uint8_t>(50 * x), static_cast<std::uint8_t>(100 * y),
+                     static_cast<std::uint8_t>(x + y)};
+  write_rgb_png(dir.file("a.png"), image);
+  Image<Rgb8> back;
+  ASSERT_TRUE(read_rgb_png(dir.file("a.png"), back));
+  EXPECT_EQ(back, image);
+}
+
+TEST(RgbPng, ErrorsNameTheFile) {
+  testing::ScratchDir dir;
+  const std::string bad = dir.file("missing-folder/a.png");
+  try {
+    write_rgb_png(bad, Image<Rgb8>(2, 2));
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kFailure);
+    EXPECT_NE(std::string(e.what()).find(bad), std::string::npos);
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  }
+  EXPECT_THROW(write_rgb_png(dir.file("b.png"), Image<Rgb8>()), Error);
+}
+
+}  // namespace
+}  // namespace aoscan

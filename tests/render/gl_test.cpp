@@ -1,0 +1,427 @@
+/// @file gl_test.cpp
+/// @brief The GL path against the CPU composite on analytic frames, shader compilation, and the
+/// live view's fall-backs. Needs a display with OpenGL 3.3 (tools/test.sh runs the suite under
+/// `xvfb-run -a -s "-noreset"` with Mesa's software rasteriser); skips with a message when there
+/// is none. Without -noreset Xvfb resets whenever its last client leaves, and a window opened
+/// during the reset fails: the helpers below retry once in that case.
+#include <dlfcn.h>
+#include <unistd.h>
+#include <chrono>
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "render/composite.h"
+#include "render/gl_renderer.h"
+#include "render/gl_window.h"
+#include "render/hud.h"
+#include "render/live_view.h"
+#include "render/render_test_util.h"
+
+namespace aoscan {
+namespace {
+
+/// Largest per-channel difference allowed for a pixel to count as matching, and the share of
+/// pixels that must match. Differences come from float rounding in the shaders (e.g. division,
+/// normalize) landing on the other side of a .5 in the 8-bit conversion.
+constexpr int kMaxChannelDiff = 2;
+constexpr double kMinMatchingShare = 0.999;
+
+struct Comparison {
+  double matching_share = 0.0;
+  int max_diff = 0;
+};
+
+Comparison compare(const Image<Rgb8>& a, const Image<Rgb8>& b) {
+  Comparison c;
+  if (a.width() != b.width() || a.height() != b.height() || a.empty()) return c;
+  std::size_t matching = 0;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) {
+      const Rgb8 p = a(x, y);
+      const Rgb8 q = b(x, y);
+      const int d = std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)});
+      c.max_diff = std::max(c.max_diff, d);
+      matching += d <= kMaxChannelDiff;
+    }
+  c.matching_share = static_cast<double>(matching) / static_cast<double>(a.size());
+  return c;
+}
+
+/// True for the transient failure of connecting while Xvfb resets.
+bool display_resetting(const std::string& error) {
+  return error.find("Failed to open display") != std::string::npos;
+}
+
+std::unique_ptr<GlWindow> create_window(const WindowOptions& options, std::string& error) {
+  std::unique_ptr<GlWindow> window = GlWindow::create(options, error);
+  if (!window && display_resetting(error)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    window = GlWindow::create(options, error);
+  }
+  return window;
+}
+
+LiveViewResult run_view(const LiveViewOptions& options, const ViewFeed& feed,
+                        ViewCommandQueue& commands, const std::atomic<bool>& stop) {
+  LiveViewResult r = run_live_view(options, feed, commands, stop);
+  if (r.outcome == LiveViewResult::Outcome::kUnavailable && display_resetting(r.message)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    r = run_live_view(options, feed, commands, stop);
+  }
+  return r;
+}
+
+/// Makes every shared library mapped now resident for the rest of the process. glfwTerminate()
+/// unloads libGL and with it Mesa's driver, whose allocations of its own lifetime then show up
+/// as leaks from an "unknown module" under LeakSanitizer; pinned, they stay reachable.
+void pin_loaded_libraries() {
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  while (std::getline(maps, line)) {
+    const std::size_t slash = line.find('/');
+    if (slash == std::string::npos || line.find(".so", slash) == std::string::npos) continue;
+    const std::string path = line.substr(slash);
+    if (void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE))
+      dlclose(handle);  // drops our reference; NODELETE keeps the library mapped
+  }
+}
+
+/// A hidden window whose context the tests draw with (into an offscreen framebuffer).
+class GlTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string error;
+    WindowOptions options;
+    options.width = 64;
+    options.height = 64;
+    options.visible = false;
+    window_ = create_window(options, error);
+    if (!window_) GTEST_SKIP() << "no OpenGL 3.3 context (" << error << "); run under xvfb-run";
+    pin_loaded_libraries();
+  }
+  void TearDown() override { window_.reset(); }
+
+  /// Renders `view` of `frame` at the frame's size through GL and reads it back.
+  Image<Rgb8> render_gl(const ViewFrame& frame, View view, const ViewStyle& style,
+                        const OrbitCamera& orbit = {}) {
+    const GlApi& gl = window_->gl();
+    std::string error;
+    GlViewRenderer renderer;
+    EXPECT_TRUE(renderer.init(gl, error)) << error;
+    GlOffscreenTarget target;
+    EXPECT_TRUE(target.create(gl, frame.intrinsics.width, frame.intrinsics.height, error)) << error;
+    target.bind();
+    const Rgb8 bg = style.background;
+    gl.Viewport(0, 0, frame.intrinsics.width, frame.intrinsics.height);
+    gl.ClearColor(bg.r / 255.0f, bg.g / 255.0f, bg.b / 255.0f, 1.0f);
+    gl.Clear(GL_COLOR_BUFFER_BIT);
+    renderer.upload(frame);
+    renderer.draw(view, {0, 0, frame.intrinsics.width, frame.intrinsics.height}, style, orbit);
+    Image<Rgb8> out;
+    target.read(out);
+    EXPECT_EQ(gl.GetError(), static_cast<GLenum>(GL_NO_ERROR));
+    return out;
+  }
+
+  std::unique_ptr<GlWindow> window_;
+};
+
+TEST_F(GlTest, EveryShaderCompilesAndLinks) {
+  std::string error;
+  GlViewRenderer renderer;
+  ASSERT_TRUE(renderer.init(window_->gl(), error)) << error;
+  EXPECT_GE(window_->gl().version(), 33);
+  std::printf("[ info ] GL renderer: %s\n", window_->renderer().c_str());
+}
+
+TEST_F(GlTest, ImageViewsMatchTheCpuComposite) {
+  ViewFrame frame = testing::sphere_wall_frame(160, 120);
+  ViewStyle style;  // the default light: non-trivial diffuse everywhere
+  for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+    Image<Rgb8> cpu;
+    composite_view(frame, view, cpu, style);
+    const Image<Rgb8> gpu = render_gl(frame, view, style);
+    const Comparison c = compare(cpu, gpu);
+    std::printf("[ info ] %-8s matching %.5f, max diff %d\n", view_name(view), c.matching_share,
+                c.max_diff);
+    EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
+    EXPECT_LE(c.max_diff, 8) << view_name(view);  // near-misses only, never a wrong colour
+  }
+  // The NaN patches and the no-surface band really show the background in GL too.
+  const Image<Rgb8> ssao = render_gl(frame, View::kSsao, style);
+  EXPECT_EQ(ssao(15, 15), style.background);
+  const Image<Rgb8> shaded = render_gl(frame, View::kShaded, style);
+  EXPECT_EQ(shaded(155, 5), style.background);
+  EXPECT_NE(shaded(35, 15), style.background);  // unobserved MVAO shades as open
+}
+
+TEST_F(GlTest, ExactGreyAndNormalColours) {
+  ViewFrame frame;
+  frame.intrinsics.width = 8;
+  frame.intrinsics.height = 4;
+  frame.depth_m.resize(8, 4, 1.0f);
+  frame.normals.resize(8, 4, Eigen::Vector3f(0, 0, -1));
+  frame.mvao.resize(8, 4, 0.5f);
+  ViewStyle style;
+  style.to_light_camera = Eigen::Vector3f(0, 0, -1);
+  const Image<Rgb8> shaded = render_gl(frame, View::kShaded, style);
+  EXPECT_NEAR(shaded(3, 2).r, 128, 1);  // 127.5: either side is a correct rounding
+  const Image<Rgb8> normals = render_gl(frame, View::kNormals, style);
+  EXPECT_NEAR(normals(0, 0).r, 128, 1);
+  EXPECT_NEAR(normals(0, 0).g, 128, 1);
+  EXPECT_EQ(normals(0, 0).b, 255);
+}
+
+TEST_F(GlTest, ReuploadsOfSameAndOtherSizesShowTheNewFrame) {
+  const GlApi& gl = window_->gl();
+  std::string error;
+  GlViewRenderer renderer;
+  ASSERT_TRUE(renderer.init(gl, error)) << error;
+  GlOffscreenTarget target;
+  ASSERT_TRUE(target.create(gl, 40, 30, error)) << error;
+  const ViewStyle style;
+  for (const auto& [w, h] : {std::pair{40, 30}, std::pair{40, 30}, std::pair{20, 10}}) {
+    ViewFrame frame = testing::sphere_wall_frame(w, h);
+    frame.ssao.fill(0.1f * static_cast<float>(w + h) / 70.0f);
+    target.bind();
+    gl.Viewport(0, 0, 40, 30);
+    renderer.upload(frame);
+    EXPECT_EQ(renderer.frame_width(), w);
+    renderer.draw(View::kSsao, {0, 0, w, h}, style, OrbitCamera{});
+    Image<Rgb8> gpu;
+    target.read(gpu);
+    // The view's rectangle is the bottom-left w x h of the target: image row h - 1 of the frame
+    // is target row 29.
+    EXPECT_EQ(gpu(0, 29), shade_ssao(frame.ssao(0, h - 1), style)) << w << "x" << h;
+  }
+}
+
+TEST_F(GlTest, ImageRowsAreNotFlipped) {
+  ViewFrame frame;
+  frame.intrinsics.width = 4;
+  frame.intrinsics.height = 4;
+  frame.ssao.resize(4, 4, 1.0f);
+  frame.ssao(0, 0) = 0.0f;  // top-left black
+  const Image<Rgb8> out = render_gl(frame, View::kSsao, ViewStyle{});
+  EXPECT_EQ(out(0, 0), (Rgb8{0, 0, 0}));
+  EXPECT_EQ(out(0, 3), (Rgb8{255, 255, 255}));
+  EXPECT_EQ(out(3, 0), (Rgb8{255, 255, 255}));
+}
+
+TEST_F(GlTest, OrbitViewMatchesTheCpuSplatter) {
+  ViewFrame frame;
+  frame.intrinsics.width = 160;
+  frame.intrinsics.height = 120;
+  frame.surface = testing::sphere_points({0.2f, -0.1f, 2.0f}, 0.6f, 60);
+  ViewStyle style;
+  OrbitCamera orbit = fit_orbit(*frame.surface);
+  orbit.yaw_rad = 0.4f;
+  orbit.pitch_rad = 0.3f;
+  Image<Rgb8> cpu(160, 120);
+  composite_orbit(*frame.surface, orbit, cpu, style);
+  const Image<Rgb8> gpu = render_gl(frame, View::kOrbit, style, orbit);
+  const Comparison c = compare(cpu, gpu);
+  std::printf("[ info ] orbit    matching %.5f, max diff %d\n", c.matching_share, c.max_diff);
+  // Points whose square edge falls within float rounding of a pixel centre may cover one pixel
+  // more or less in GL, and near-equal depths may resolve the other way: 99 % of the pixels.
+  EXPECT_GE(c.matching_share, 0.99);
+  std::size_t covered = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) covered += gpu(x, y) != style.background;
+  EXPECT_GT(covered, 2000u);
+}
+
+TEST_F(GlTest, HudOverlayMatchesTheCpuBlend) {
+  const ViewFrame frame = testing::sphere_wall_frame(320, 160);
+  Image<Rgba8> hud;
+  render_text_overlay(hud_lines(&frame, View::kShaded, 60.0), 1, hud);
+  ASSERT_LE(hud.width(), 320 - 3);
+  ASSERT_LE(hud.height(), 160 - 2);
+  ViewStyle style;
+  Image<Rgb8> cpu;
+  composite_view(frame, View::kDepth, cpu, style);
+  blend_overlay(hud, 3, 2, cpu);
+
+  const GlApi& gl = window_->gl();
+  std::string error;
+  GlViewRenderer renderer;
+  ASSERT_TRUE(renderer.init(gl, error)) << error;
+  GlOffscreenTarget target;
+  ASSERT_TRUE(target.create(gl, 320, 160, error)) << error;
+  target.bind();
+  renderer.upload(frame);
+  renderer.draw(View::kDepth, {0, 0, 320, 160}, style, OrbitCamera{});
+  renderer.draw_overlay(hud, 3, 2, 160);
+  Image<Rgb8> gpu;
+  target.read(gpu);
+  const Comparison c = compare(cpu, gpu);
+  EXPECT_GE(c.matching_share, kMinMatchingShare);
+  EXPECT_LE(c.max_diff, 8);
+}
+
+TEST_F(GlTest, ShaderCompileFailureIsOneLineNamingTheFile) {
+  std::string error;
+  GlViewRenderer renderer;
+  EXPECT_FALSE(renderer.init(window_->gl(), error,
+                             {{"normals.frag", "#version 330 core\nvoid main() { oops; }\n"}}));
+  EXPECT_NE(error.find("normals.frag"), std::string::npos) << error;
+  EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+  // A program that compiles but cannot link (no main in the fragment stage).
+  error.clear();
+  EXPECT_FALSE(renderer.init(window_->gl(), error, {{"ssao.frag", "#version 330 core\n"}}));
+  EXPECT_NE(error.find("ssao"), std::string::npos) << error;
+  // And the renderer is usable again after a good init.
+  EXPECT_TRUE(renderer.init(window_->gl(), error)) << error;
+}
+
+/// The live view on this display: runs a few redraws, quits, falls back.
+class LiveViewTest : public GlTest {
+ protected:
+  void SetUp() override {
+    GlTest::SetUp();
+    window_.reset();  // the live view makes its own window (one GLFW user at a time)
+  }
+};
+
+TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
+  auto frame = std::make_shared<ViewFrame>(testing::sphere_wall_frame(64, 48));
+  frame->surface = testing::sphere_points({0, 0, 2}, 0.5f, 20);
+  std::shared_ptr<const ViewFrame> published = frame;
+  ViewCommandQueue commands;
+  std::atomic<bool> stop{false};
+  LiveViewOptions options;
+  options.window.visible = false;
+  options.window.width = 320;
+  options.window.height = 240;
+  options.max_redraw_hz = 0;  // no waiting between redraws
+  options.max_redraws = 5;
+  for (int v = 0; v < kViewCount; ++v) {
+    options.initial_view = static_cast<View>(v);
+    const LiveViewResult r = run_view(
+        options, [&] { return published; }, commands, stop);
+    EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kStopped) << r.message;
+    EXPECT_EQ(r.redraws, 5);
+  }
+  EXPECT_FALSE(commands.poll());
+
+  // Stopped from another thread (the pipeline's stop), on a thread of its own.
+  options.max_redraws = 0;
+  options.max_redraw_hz = 200;
+  LiveViewResult result;
+  std::atomic<int> feed_calls{0};  // one per loop iteration, after the window and shaders are up
+  std::atomic<bool> finished{false};
+  std::thread render([&] {
+    result = run_view(
+        options,
+        [&] {
+          ++feed_calls;
+          return published;
+        },
+        commands, stop);
+    finished = true;
+  });
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (feed_calls.load() < 3 && !finished.load() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  stop = true;
+  render.join();
+  EXPECT_EQ(result.outcome, LiveViewResult::Outcome::kStopped) << result.message;
+  EXPECT_GT(result.redraws, 0);
+}
+
+TEST_F(LiveViewTest, BrokenShaderFallsBackHeadless) {
+  ViewCommandQueue commands;
+  std::atomic<bool> stop{false};
+  LiveViewOptions options;
+  options.window.visible = false;
+  options.shader_overrides = {{"shaded.frag", "not glsl"}};
+  const auto start = std::chrono::steady_clock::now();
+  const LiveViewResult r = run_view(options, nullptr, commands, stop);
+  EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kUnavailable);
+  EXPECT_NE(r.message.find("shaded.frag"), std::string::npos) << r.message;
+  EXPECT_EQ(r.message.find('\n'), std::string::npos);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  EXPECT_FALSE(commands.quit_requested());  // falling back is not quitting
+}
+
+/// True when a libGL / libGLX / libEGL / libOpenGL is mapped into this process.
+bool gl_library_loaded() {
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  while (std::getline(maps, line))
+    for (const char* lib : {"/libGL.so", "/libGLX.so", "/libGLX_mesa", "/libEGL", "/libOpenGL"})
+      if (line.find(lib) != std::string::npos) return true;
+  return false;
+}
+
+TEST(LiveViewNoDisplay, NothingLinksLibGl) {
+  // GL functions come through glfwGetProcAddress, so no binary needs libGL at load time: a
+  // headless run never maps it. (The test binary uses every render function, GLFW included.)
+  const std::string out = ::testing::TempDir() + "/render_tests_ldd.txt";
+  const std::string cmd = "ldd /proc/" + std::to_string(::getpid()) + "/exe > " + out + " 2>&1";
+  if (std::system(cmd.c_str()) != 0) GTEST_SKIP() << "ldd is not available";
+  std::ifstream in(out);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("libglfw"), std::string::npos) << text;
+  for (const char* lib : {"libGL.so", "libGLX.so", "libOpenGL.so", "libEGL.so"})
+    EXPECT_EQ(text.find(lib), std::string::npos) << lib << " linked:\n" << text;
+}
+
+TEST(LiveViewNoDisplay, FallsBackHeadlessWithoutTouchingGl) {
+  const bool gl_before = gl_library_loaded();
+  const char* old = std::getenv("DISPLAY");
+  const std::string saved = old ? old : "";
+  ::unsetenv("DISPLAY");
+  const char* wayland = std::getenv("WAYLAND_DISPLAY");
+  const std::string saved_wayland = wayland ? wayland : "";
+  ::unsetenv("WAYLAND_DISPLAY");
+  ViewCommandQueue commands;
+  std::atomic<bool> stop{false};
+  const LiveViewResult r = run_live_view(LiveViewOptions{}, nullptr, commands, stop);
+  if (old) ::setenv("DISPLAY", saved.c_str(), 1);
+  if (wayland) ::setenv("WAYLAND_DISPLAY", saved_wayland.c_str(), 1);
+  EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kUnavailable);
+  EXPECT_NE(r.message.find("no display"), std::string::npos) << r.message;
+  EXPECT_TRUE(r.gl_renderer.empty());
+  if (!gl_before) {
+    EXPECT_FALSE(gl_library_loaded()) << "the fall-back loaded a GL library";
+  }
+}
+
+TEST(LiveViewNoDisplay, UnreachableDisplayFallsBack) {
+  const char* old = std::getenv("DISPLAY");
+  const std::string saved = old ? old : "";
+  ::setenv("DISPLAY", ":12345", 1);  // no X server there
+  ViewCommandQueue commands;
+  std::atomic<bool> stop{false};
+  const LiveViewResult r = run_live_view(LiveViewOptions{}, nullptr, commands, stop);
+  if (old) {
+    ::setenv("DISPLAY", saved.c_str(), 1);
+  } else {
+    ::unsetenv("DISPLAY");
+  }
+  EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kUnavailable);
+  EXPECT_NE(r.message.find("GLFW"), std::string::npos) << r.message;
+}
+
+TEST(Letterbox, KeepsAspectCentred) {
+  const GlRect wide = letterbox(640, 480, 1280, 720);
+  EXPECT_EQ(wide.width, 960);
+  EXPECT_EQ(wide.height, 720);
+  EXPECT_EQ(wide.x, 160);
+  EXPECT_EQ(wide.y, 0);
+  const GlRect tall = letterbox(640, 480, 640, 1000);
+  EXPECT_EQ(tall.width, 640);
+  EXPECT_EQ(tall.height, 480);
+  EXPECT_EQ(tall.y, 260);
+  EXPECT_EQ(letterbox(0, 480, 100, 100).width, 0);
+}
+
+}  // namespace
+}  // namespace aoscan
