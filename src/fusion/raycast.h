@@ -26,8 +26,15 @@ struct RaycastResult {
 /// blocks, steps by the TSDF value inside blocks, and takes the first + to - zero crossing,
 /// refined by interpolating trilinear samples. Normals come from the TSDF gradient. `result`'s
 /// buffers are reused. Multi-threaded over rows; the result does not depend on the thread count.
+/// `depth_hint_m` (optional, metres, same size): a depth image taken at this very pose, normally
+/// the frame just integrated. A ray with a hint looks for the zero crossing next to it (a few
+/// trilinear samples stepping by the TSDF value, then a march of +-2 truncations around it) and
+/// nowhere else: the frame saw free space in front of its depth, so this is the first crossing
+/// unless the model disagrees with the frame. Rays without a hint march their whole range.
+/// Throws usage_error on invalid intrinsics, an empty depth range or a hint of the wrong size.
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
-             const FusionConfig& config, RaycastResult& result);
+             const FusionConfig& config, RaycastResult& result,
+             const Image<float>* depth_hint_m = nullptr);
 
 /// Plain reference of raycast(): single-threaded, a fixed step of `step_voxels` voxels through
 /// the whole depth range, trilinear samples only, no block skipping. Slow; for tests.

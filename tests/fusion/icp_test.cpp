@@ -121,7 +121,9 @@ TEST(Icp, SinglePlaneIsDegenerateButConstrainedPartIsRecovered) {
   const Pose B(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.02));
   const IcpResult r =
       icp(test::render_pyramid(scene, kKinect, B), model, Pose::identity(), TrackingConfig{});
-  EXPECT_EQ(r.status, TrackingStatus::kPoor);
+  EXPECT_EQ(r.status, TrackingStatus::kPoor)
+      << to_string(r.status) << " inliers " << r.inliers << " ratio " << r.inlier_ratio << " t "
+      << r.translation_m << " rms " << r.rms_residual_m;
   EXPECT_TRUE(r.degenerate);
   EXPECT_NEAR(r.T_world_camera.translation().z(), 0.02, 0.001);
   EXPECT_TRUE(r.T_world_camera.finite());
