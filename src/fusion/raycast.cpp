@@ -1,6 +1,6 @@
 /// @file raycast.cpp
-/// @brief TSDF raycasting: per-tile depth bounds from the allocated blocks, block skipping,
-/// adaptive steps, secant-refined zero crossings, gradient normals.
+/// @brief TSDF raycasting: depth-hint search, per-tile depth bounds from the allocated blocks,
+/// block skipping, steps by the TSDF value, regula-falsi-refined zero crossings, gradient normals.
 #include "fusion/raycast.h"
 
 #include <algorithm>
@@ -75,7 +75,8 @@ void clear_pixel(RaycastResult& r, int x, int y) {
 }
 
 /// Writes depth, vertex and normal of a hit at depth s (normal: TSDF gradient by central
-/// differences of trilinear samples); clears the pixel when it is not available.
+/// differences around the nearest voxel, 7 voxel reads); clears the pixel when it is not
+/// available.
 void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matrix3f& R_camera_world,
                RaycastResult& r, int x, int y) {
   Eigen::Vector3f grad;

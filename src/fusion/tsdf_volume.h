@@ -222,25 +222,6 @@ class TsdfSampler {
     return true;
   }
 
-  /// Trilinear TSDF at g and its exact gradient inside the voxel cell (per voxel): one cell read,
-  /// for kernels that cannot afford central differences.
-  bool trilinear_with_gradient(const Eigen::Vector3f& g, float& tsdf, Eigen::Vector3f& grad) {
-    float c[8], a[3];
-    if (!cell(g, c, a, 1e-6f)) return false;
-    tsdf = interpolate(c, a);
-    // d/dx: interpolate the x differences over y, z; likewise for y and z.
-    const float dx[4] = {c[1] - c[0], c[3] - c[2], c[5] - c[4], c[7] - c[6]};
-    const float dy[4] = {c[2] - c[0], c[3] - c[1], c[6] - c[4], c[7] - c[5]};
-    const float dz[4] = {c[4] - c[0], c[5] - c[1], c[6] - c[2], c[7] - c[3]};
-    auto bilerp = [](const float* v, float s, float t) {
-      const float v0 = v[0] + s * (v[1] - v[0]);
-      const float v1 = v[2] + s * (v[3] - v[2]);
-      return v0 + t * (v1 - v0);
-    };
-    grad = Eigen::Vector3f(bilerp(dx, a[1], a[2]), bilerp(dy, a[0], a[2]), bilerp(dz, a[0], a[1]));
-    return true;
-  }
-
   /// TSDF gradient (per voxel) at the voxel nearest to g by central differences of its six
   /// neighbours: 7 voxel reads, for kernels that cannot afford trilinear differences. False when
   /// a neighbour is unallocated or unobserved.

@@ -37,6 +37,11 @@ struct FusedScene {
   }
 };
 
+const Image<float>& depth_small() {
+  static const Image<float> small(320, 240, 1.0f);
+  return small;
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -125,6 +130,40 @@ TEST(Raycast, FastRaycastAgreesWithFixedStepReference) {
   // step, one march sees the front object and the other the background. At most 0.5 %.
   EXPECT_LE(std::count_if(depth_diff.begin(), depth_diff.end(), [](double d) { return d > 0.01; }),
             both / 200);
+}
+
+TEST(Raycast, DepthHintFindsTheSameSurface) {
+  // The last frame fused from this pose is the hint, as the tracking loop does.
+  const FusedScene fused;
+  const Pose pose = test::look_at({0.4, -0.2, 0.1}, {0, 0.1, 1.6});
+  Image<float> hint;
+  test::render(fused.scene, kKinect, pose, hint, nullptr, 0.003, 5);
+  TsdfVolume volume{FusionConfig{}};
+  Image<float> depth;
+  for (const Pose& p : {test::look_at({0, 0, 0}, {0, 0.1, 1.6}), pose}) {
+    test::render(fused.scene, kKinect, p, depth, nullptr, 0.003, p.translation().x() > 0 ? 5 : 6);
+    volume.integrate(depth, kKinect, p);
+  }
+  RaycastResult with, without;
+  raycast(volume, kKinect, pose, FusionConfig{}, with, &hint);
+  raycast(volume, kKinect, pose, FusionConfig{}, without);
+  int both = 0, only_one = 0, differ = 0, gross = 0;
+  for (int y = 0; y < kKinect.height; ++y)
+    for (int x = 0; x < kKinect.width; ++x) {
+      const bool a = with.depth_m(x, y) > 0, b = without.depth_m(x, y) > 0;
+      only_one += a != b;
+      if (!a || !b) continue;
+      ++both;
+      // Both find a crossing of the same noisy field; they may bracket different wiggles of it.
+      const float diff = std::abs(with.depth_m(x, y) - without.depth_m(x, y));
+      differ += diff > 0.001f;
+      gross += diff > 0.01f;
+    }
+  EXPECT_GT(both, 200000);
+  EXPECT_LE(only_one, both / 100);
+  EXPECT_LE(differ, both * 3 / 100);
+  EXPECT_LE(gross, both / 200);
+  EXPECT_THROW(raycast(volume, kKinect, pose, FusionConfig{}, with, &depth_small()), Error);
 }
 
 TEST(Raycast, SameResultForOneAndTwoThreads) {
