@@ -22,9 +22,9 @@ constexpr int kRowsPerGroup = 4;
 constexpr int kMinInliers = 64;
 /// Eigenvalues of the system below this fraction of the largest are treated as unconstrained.
 constexpr double kDegenerateEigenRatio = 1e-6;
-/// Increments below these (rad, m) end a level early.
-constexpr double kConvergedRotation = 1e-6;
-constexpr double kConvergedTranslation = 1e-6;
+/// Increments below these (rad, m) end a level early (0.006 degrees, 0.05 mm).
+constexpr double kConvergedRotation = 1e-4;
+constexpr double kConvergedTranslation = 5e-5;
 
 /// Partial sums of the normal equations (upper triangle of A row by row, b, residuals).
 struct Accumulator {

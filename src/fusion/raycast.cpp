@@ -1,6 +1,6 @@
 /// @file raycast.cpp
-/// @brief TSDF raycasting: per-tile depth bounds from the allocated blocks, block skipping,
-/// adaptive steps, secant-refined zero crossings, gradient normals.
+/// @brief TSDF raycasting: depth-hint search, per-tile depth bounds from the allocated blocks,
+/// block skipping, steps by the TSDF value, regula-falsi-refined zero crossings, gradient normals.
 #include "fusion/raycast.h"
 
 #include <algorithm>
@@ -20,10 +20,15 @@ namespace {
 constexpr int kTile = 8;
 /// Block groups of the depth-bounds pass; fixed so the split never depends on threads.
 constexpr int kBoundsGroups = 16;
+/// Steps of the search around a depth hint before falling back to a march of the window ...
+constexpr int kHintSteps = 4;
+/// ... of this half-width around the hint, in truncation distances.
+constexpr float kHintWindow = 2.0f;
 /// Limit of the refinement iterations after a zero crossing is bracketed ...
-constexpr int kRefineIterations = 8;
-/// ... which stop when the bracket is this short (depth along the optical axis, m).
-constexpr float kRefineTolerance = 1e-5f;
+constexpr int kRefineIterations = 4;
+/// ... which stop when the bracket is this short (depth along the optical axis, m) or the
+/// sample's distance to the surface is below it (m).
+constexpr float kRefineTolerance = 1e-4f;
 
 /// A camera ray in voxel units: g(s) = origin + s * dir, where s is the depth along the optical
 /// axis (m).
@@ -34,16 +39,19 @@ struct Ray {
   float metres_per_s;          ///< |ray_camera|: metres travelled per unit of s
 };
 
-/// Finds the zero crossing between s0 (tsdf f0 > 0) and s1 (tsdf f1 < 0) on trilinear samples by
+/// Finds the zero crossing between s0 (tsdf f0 >= 0) and s1 (tsdf f1 < 0) on trilinear samples by
 /// the Illinois variant of regula falsi (converges where the field is not linear, e.g. at grazing
-/// angles).
-float refine_crossing(TsdfSampler& sampler, const Ray& ray, float s0, float f0, float s1,
-                      float f1) {
+/// angles); a bracket within one voxel takes a single secant step.
+float refine_crossing(TsdfSampler& sampler, const Ray& ray, float voxel_size, float truncation,
+                      float s0, float f0, float s1, float f1) {
+  // Within a voxel the interpolated field is close to linear: one secant step is enough.
+  if ((s1 - s0) * ray.metres_per_s <= voxel_size) return s0 + (s1 - s0) * f0 / (f0 - f1);
   int side = 0;
   for (int i = 0; i < kRefineIterations; ++i) {
     const float s = s0 + (s1 - s0) * f0 / (f0 - f1);
     float f = 0;
     if (!sampler.trilinear(ray.origin + s * ray.dir, f)) break;
+    if (std::abs(f) * truncation < kRefineTolerance) return s;
     if (f > 0) {
       s0 = s;
       f0 = f;
@@ -66,12 +74,13 @@ void clear_pixel(RaycastResult& r, int x, int y) {
   r.maps.normals(x, y).setZero();
 }
 
-/// Writes depth, vertex and normal of a hit at depth s; clears the pixel when the normal is not
+/// Writes depth, vertex and normal of a hit at depth s (normal: TSDF gradient by central
+/// differences around the nearest voxel, 7 voxel reads); clears the pixel when it is not
 /// available.
 void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matrix3f& R_camera_world,
                RaycastResult& r, int x, int y) {
   Eigen::Vector3f grad;
-  if (!sampler.gradient(ray.origin + s * ray.dir, grad) || !(grad.squaredNorm() > 1e-12f)) {
+  if (!sampler.nearest_gradient(ray.origin + s * ray.dir, grad) || !(grad.squaredNorm() > 1e-12f)) {
     clear_pixel(r, x, y);
     return;
   }
@@ -161,36 +170,40 @@ void depth_bounds(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_w
       const Eigen::Vector3f lo = (volume.block_coord(i) * kBlockSize).cast<float>() * vs;
       const float edge = kBlockSize * vs;
       float z_lo = inf, z_hi = -inf, u_lo = inf, u_hi = -inf, v_lo = inf, v_hi = -inf;
-      bool straddles = false;
+      Eigen::Vector3f p[8];
       for (int c = 0; c < 8; ++c) {
-        const Eigen::Vector3f corner =
-            lo + edge * Eigen::Vector3f(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        const Eigen::Vector3f p = R * corner + t;
-        z_lo = std::min(z_lo, p.z());
-        z_hi = std::max(z_hi, p.z());
-        if (p.z() < min_depth) {
-          straddles = true;
-          continue;
-        }
-        const float u = fx * p.x() / p.z() + cx;
-        const float v = fy * p.y() / p.z() + cy;
+        p[c] = R * (lo + edge * Eigen::Vector3f(c & 1, (c >> 1) & 1, (c >> 2) & 1)) + t;
+        z_lo = std::min(z_lo, p[c].z());
+        z_hi = std::max(z_hi, p[c].z());
+      }
+      if (z_hi < min_depth) continue;
+      auto include = [&](const Eigen::Vector3f& q) {
+        const float u = fx * q.x() / q.z() + cx;
+        const float v = fy * q.y() / q.z() + cy;
         u_lo = std::min(u_lo, u);
         u_hi = std::max(u_hi, u);
         v_lo = std::min(v_lo, v);
         v_hi = std::max(v_hi, v);
+      };
+      // The box clipped by the near plane z = min_depth: corners in front, and where the box
+      // edges cross the plane.
+      for (int c = 0; c < 8; ++c) {
+        if (p[c].z() >= min_depth) include(p[c]);
+        for (int axis = 0; axis < 3; ++axis) {
+          const int d = c | (1 << axis);
+          if (d == c) continue;
+          const float zc = p[c].z() - min_depth, zd = p[d].z() - min_depth;
+          if ((zc < 0.0f) != (zd < 0.0f)) include(p[c] + (p[d] - p[c]) * (zc / (zc - zd)));
+        }
       }
-      if (z_hi < min_depth) continue;
-      int x0 = 0, x1 = k.width - 1, y0 = 0, y1 = k.height - 1;
-      if (!straddles) {
-        if (u_hi < 0.0f || v_hi < 0.0f || u_lo > static_cast<float>(k.width - 1) ||
-            v_lo > static_cast<float>(k.height - 1))
-          continue;
-        x0 = std::max(0, static_cast<int>(std::ceil(u_lo)));
-        x1 = std::min(k.width - 1, static_cast<int>(std::floor(u_hi)));
-        y0 = std::max(0, static_cast<int>(std::ceil(v_lo)));
-        y1 = std::min(k.height - 1, static_cast<int>(std::floor(v_hi)));
-        if (x0 > x1 || y0 > y1) continue;
-      }
+      if (u_hi < 0.0f || v_hi < 0.0f || u_lo > static_cast<float>(k.width - 1) ||
+          v_lo > static_cast<float>(k.height - 1))
+        continue;
+      const int x0 = std::max(0, static_cast<int>(std::ceil(std::max(u_lo, -1.0f))));
+      const int x1 = std::min(k.width - 1, static_cast<int>(std::floor(u_hi)));
+      const int y0 = std::max(0, static_cast<int>(std::ceil(std::max(v_lo, -1.0f))));
+      const int y1 = std::min(k.height - 1, static_cast<int>(std::floor(v_hi)));
+      if (x0 > x1 || y0 > y1) continue;
       z_lo = std::max(z_lo, min_depth);
       for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty) {
         for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) {
@@ -221,11 +234,121 @@ bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_wo
   return reach / volume.voxel_size_m() < static_cast<double>(1 << 23);
 }
 
+/// Marches one ray from depth s to s_end; writes the pixel and returns true on a surface hit.
+bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float voxel_size,
+           float truncation, const Eigen::Matrix3f& R_camera_world, RaycastResult& result, int x,
+           int y) {
+  const float s_per_metre = 1.0f / ray.metres_per_s;
+  const float min_step = voxel_size * s_per_metre;
+  const float big_step = 0.8f * truncation * s_per_metre;
+  float prev_s = 0.0f, prev_f = 0.0f;
+  bool prev_valid = false;
+  while (s < s_end) {
+    // Steps read the nearest voxel only (one cache line); trilinear samples are taken once a
+    // sign change is bracketed.
+    const Eigen::Vector3f g = ray.origin + s * ray.dir;
+    const int gx = static_cast<int>(std::floor(g.x() + 0.5f));
+    const int gy = static_cast<int>(std::floor(g.y() + 0.5f));
+    const int gz = static_cast<int>(std::floor(g.z() + 0.5f));
+    const Voxel* v = sampler.voxel(gx, gy, gz);
+    if (v == nullptr) {
+      // Jump to where the ray leaves the region whose nearest voxel is in this unallocated
+      // block, [8b - 0.5, 8b + 7.5) per axis.
+      float s_exit = std::numeric_limits<float>::infinity();
+      const int b[3] = {gx >> 3, gy >> 3, gz >> 3};
+      for (int a = 0; a < 3; ++a) {
+        if (ray.dir[a] == 0.0f) continue;
+        const float boundary =
+            static_cast<float>(kBlockSize * (ray.dir[a] > 0.0f ? b[a] + 1 : b[a])) - 0.5f;
+        s_exit = std::min(s_exit, (boundary - ray.origin[a]) / ray.dir[a]);
+      }
+      s = std::max(s_exit, s) + 0.01f * min_step;
+      prev_valid = false;
+      continue;
+    }
+    if (!(v->weight > 0.0f)) {
+      // Unobserved voxels carry no surface; a step under the truncation cannot jump over the
+      // positive band in front of an observed one.
+      prev_valid = false;
+      s += big_step;
+      continue;
+    }
+    const float f = v->tsdf;
+    if (prev_valid && prev_f >= 0.0f && f < 0.0f) {
+      float f0 = 0.0f, f1 = 0.0f;
+      bool ok0 = sampler.trilinear(ray.origin + prev_s * ray.dir, f0);
+      const bool ok1 = sampler.trilinear(g, f1);
+      // Nearest and interpolated values can disagree within a voxel of the surface: when the
+      // interpolated field has already crossed at prev_s, back up to where it has not.
+      for (int back = 1; back <= 2 && ok0 && ok1 && f0 < 0.0f && f1 < 0.0f; ++back) {
+        prev_s -= min_step;
+        ok0 = sampler.trilinear(ray.origin + prev_s * ray.dir, f0);
+      }
+      if (ok0 && ok1 && f0 >= 0.0f && f1 < 0.0f) {
+        write_hit(sampler, ray,
+                  refine_crossing(sampler, ray, voxel_size, truncation, prev_s, f0, s, f1),
+                  R_camera_world, result, x, y);
+        return result.depth_m(x, y) > 0.0f;
+      }
+      if (ok1 && f1 >= 0.0f) {
+        // The interpolated field has not crossed yet: creep on.
+        prev_s = s;
+        prev_f = std::max(f1, 1e-6f);
+        s += min_step;
+        continue;
+      }
+    }
+    prev_s = s;
+    prev_f = f;
+    prev_valid = true;
+    s += f > 0.0f ? std::max(min_step, f * truncation * s_per_metre) : min_step;
+  }
+  return false;
+}
+
+/// Searches for the surface around depth `d` (a depth measured at this pixel and pose): walks
+/// from d towards the zero of the trilinear field in steps of its value (at least a voxel) until
+/// the sign changes, then refines. Returns false when the field is unavailable or no + to -
+/// crossing is found within kHintSteps steps; the caller then marches the whole ray.
+bool search_near(TsdfSampler& sampler, const Ray& ray, float d, float s_begin, float s_end,
+                 float voxel_size, float truncation, const Eigen::Matrix3f& R_camera_world,
+                 RaycastResult& result, int x, int y) {
+  const float s_per_metre = 1.0f / ray.metres_per_s;
+  const float min_step = voxel_size * s_per_metre;
+  float s_a = d, f_a = 0.0f;
+  if (!(s_a >= s_begin && s_a < s_end) || !sampler.trilinear(ray.origin + s_a * ray.dir, f_a))
+    return false;
+  const float direction = f_a >= 0.0f ? 1.0f : -1.0f;
+  for (int i = 0; i < kHintSteps; ++i) {
+    // Aim half a voxel past the estimated zero so that one step usually brackets it.
+    const float s_b =
+        s_a + direction * (std::abs(f_a) * truncation * s_per_metre + 0.5f * min_step);
+    float f_b = 0.0f;
+    if (!(s_b >= s_begin && s_b < s_end) || !sampler.trilinear(ray.origin + s_b * ray.dir, f_b))
+      return false;
+    if ((f_b >= 0.0f) != (f_a >= 0.0f)) {
+      const bool forward = direction > 0.0f;
+      const float s0 = forward ? s_a : s_b, f0 = forward ? f_a : f_b;
+      const float s1 = forward ? s_b : s_a, f1 = forward ? f_b : f_a;
+      if (!(f0 >= 0.0f && f1 < 0.0f)) return false;
+      write_hit(sampler, ray, refine_crossing(sampler, ray, voxel_size, truncation, s0, f0, s1, f1),
+                R_camera_world, result, x, y);
+      return result.depth_m(x, y) > 0.0f;
+    }
+    s_a = s_b;
+    f_a = f_b;
+  }
+  return false;
+}
+
 }  // namespace
 
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
-             const FusionConfig& config, RaycastResult& result) {
+             const FusionConfig& config, RaycastResult& result, const Image<float>* depth_hint_m) {
   check_inputs(intrinsics, config);
+  if (depth_hint_m != nullptr &&
+      (depth_hint_m->width() != intrinsics.width || depth_hint_m->height() != intrinsics.height))
+    throw usage_error("raycast: the depth hint differs in size from the intrinsics");
   prepare(intrinsics, T_world_camera, result);
   if (!T_world_camera.finite() || volume.block_count() == 0 ||
       !within_grid(volume, intrinsics, T_world_camera, config))
@@ -249,48 +372,21 @@ void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose&
           for (int x = 0; x < intrinsics.width; ++x) {
             const std::size_t ti = static_cast<std::size_t>(y / kTile) * tiles_x + x / kTile;
             const float s_end = std::min(zmax[ti], max_depth);
-            float s = std::max(zmin[ti], min_depth);
-            if (!(s < s_end)) continue;
+            const float s_begin = std::max(zmin[ti], min_depth);
+            if (!(s_begin < s_end)) continue;
             const Ray ray = setup.ray(x, y);
-            const float s_per_metre = 1.0f / ray.metres_per_s;
-            const float min_step = vs * s_per_metre;
-            float prev_s = 0.0f, prev_f = 0.0f;
-            bool prev_valid = false;
-            while (s < s_end) {
-              const Eigen::Vector3f g = ray.origin + s * ray.dir;
-              const int gx = static_cast<int>(std::floor(g.x()));
-              const int gy = static_cast<int>(std::floor(g.y()));
-              const int gz = static_cast<int>(std::floor(g.z()));
-              if (sampler.voxel(gx, gy, gz) == nullptr) {
-                // Jump to where the ray leaves the region [8b, 8b + 8) of this unallocated block.
-                float s_exit = std::numeric_limits<float>::infinity();
-                const int b[3] = {gx >> 3, gy >> 3, gz >> 3};
-                for (int a = 0; a < 3; ++a) {
-                  if (ray.dir[a] == 0.0f) continue;
-                  const float boundary =
-                      static_cast<float>(kBlockSize * (ray.dir[a] > 0.0f ? b[a] + 1 : b[a]));
-                  s_exit = std::min(s_exit, (boundary - ray.origin[a]) / ray.dir[a]);
-                }
-                s = std::max(s_exit, s) + 0.01f * min_step;
-                prev_valid = false;
-                continue;
-              }
-              float f = 0.0f;
-              if (!sampler.trilinear(g, f)) {
-                prev_valid = false;
-                s += min_step;
-                continue;
-              }
-              if (prev_valid && prev_f > 0.0f && f < 0.0f) {
-                write_hit(sampler, ray, refine_crossing(sampler, ray, prev_s, prev_f, s, f),
-                          setup.R_camera_world, result, x, y);
-                break;
-              }
-              prev_s = s;
-              prev_f = f;
-              prev_valid = true;
-              s += f > 0.0f ? std::max(min_step, 0.8f * f * trunc * s_per_metre) : min_step;
+            const float d = depth_hint_m != nullptr ? (*depth_hint_m)(x, y) : 0.0f;
+            if (d > 0.0f && d < 1e4f) {
+              // The frame saw this pixel's surface at depth d and free space in front of it:
+              // the model's first crossing is next to d, or the model is unsure here.
+              if (!search_near(sampler, ray, d, s_begin, s_end, vs, trunc, setup.R_camera_world,
+                               result, x, y))
+                march(sampler, ray, std::max(s_begin, d - kHintWindow * trunc),
+                      std::min(s_end, d + kHintWindow * trunc), vs, trunc, setup.R_camera_world,
+                      result, x, y);
+              continue;
             }
+            march(sampler, ray, s_begin, s_end, vs, trunc, setup.R_camera_world, result, x, y);
           }
         }
       });
@@ -321,8 +417,10 @@ void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
           prev_valid = false;
           continue;
         }
-        if (prev_valid && prev_f > 0.0f && f < 0.0f) {
-          write_hit(sampler, ray, refine_crossing(sampler, ray, prev_s, prev_f, s, f),
+        if (prev_valid && prev_f >= 0.0f && f < 0.0f) {
+          write_hit(sampler, ray,
+                    refine_crossing(sampler, ray, volume.voxel_size_m(), volume.truncation_m(),
+                                    prev_s, prev_f, s, f),
                     setup.R_camera_world, result, x, y);
           break;
         }
