@@ -38,6 +38,11 @@ class Pose {
   Pose operator*(const Pose& other) const { return Pose(R_ * other.R_, R_ * other.t_ + t_); }
   Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return R_ * p + t_; }
 
+  /// The same transform with its rotation made exactly orthonormal again. inverse() transposes the
+  /// rotation, so a chain of compositions (tracking multiplies poses frame after frame) must not
+  /// let rounding drift accumulate: R^T R = I + E grows to I + 3E per frame-to-model step.
+  Pose normalized() const { return Pose(Eigen::Quaterniond(R_).normalized().toRotationMatrix(), t_); }
+
   /// True when every entry is finite.
   bool finite() const { return R_.allFinite() && t_.allFinite(); }
 

@@ -271,7 +271,7 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
   result.inlier_ratio = last.valid > 0 ? static_cast<double>(last.inliers) / last.valid : 0.0;
   result.rms_residual_m = last.inliers > 0 ? std::sqrt(last.residual_sq / last.inliers) : 0.0;
 
-  const Pose estimate = model.T_world_camera * T_model_camera;
+  const Pose estimate = (model.T_world_camera * T_model_camera).normalized();
   if (!estimate.finite()) return result;
   const Pose motion = T_world_camera_init.inverse() * estimate;
   result.translation_m = motion.translation().norm();
