@@ -37,8 +37,8 @@ class Mailbox {
   /// Waits until a value newer than `seen_version` exists or the mailbox is closed or the timeout
   /// passes; returns the latest value if it is newer.
   template <class Rep, class Period>
-  std::optional<std::pair<T, std::uint64_t>> wait_newer(
-      std::uint64_t seen_version, std::chrono::duration<Rep, Period> timeout) {
+  std::optional<std::pair<T, std::uint64_t>> wait_newer(std::uint64_t seen_version,
+                                                        std::chrono::duration<Rep, Period> timeout) {
     std::unique_lock<std::mutex> lock(mutex_);
     changed_.wait_for(lock, timeout, [&] { return closed_ || version_ > seen_version; });
     if (!value_ || version_ <= seen_version) return std::nullopt;

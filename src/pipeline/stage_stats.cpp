@@ -18,8 +18,7 @@ TimingSummary StageStats::summary() const {
     const auto r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(sorted.size())));
     return sorted[std::min(sorted.size(), std::max<std::size_t>(r, 1)) - 1];
   };
-  s.ms_mean =
-      std::accumulate(sorted.begin(), sorted.end(), 0.0) / static_cast<double>(sorted.size());
+  s.ms_mean = std::accumulate(sorted.begin(), sorted.end(), 0.0) / static_cast<double>(sorted.size());
   s.ms_p50 = rank(0.50);
   s.ms_p95 = rank(0.95);
   s.ms_max = sorted.back();

@@ -35,8 +35,7 @@ class StageStats {
 
 /// Milliseconds elapsed since `start` on the steady clock.
 inline double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace aoscan
