@@ -3,6 +3,7 @@
 #include "pipeline/session.h"
 
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -123,6 +124,11 @@ class CommandPump {
   std::thread thread_;
 };
 
+/// Redraws per second of the live view (the camera delivers 30 frames a second), and the nice
+/// increment of its thread.
+constexpr double kWindowRedrawHz = 30.0;
+constexpr int kWindowNice = 10;
+
 /// The live view on its own thread; stopped and joined by stop() or the destructor.
 class WindowThread {
  public:
@@ -131,7 +137,12 @@ class WindowThread {
                std::function<void()> on_unavailable) {
     LiveViewOptions options;
     options.window.title = title;
+    options.max_redraw_hz = kWindowRedrawHz;
     thread_ = std::thread([this, options, &view, &commands, on_unavailable] {
+      // The window yields the CPU to fusion: a lower priority for this thread and the threads
+      // the GL driver starts from it (software GL such as llvmpipe renders on the CPU).
+      if (setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWindowNice) != 0)
+        spdlog::debug("live view: could not lower the window thread's priority");
       const ViewFeed feed = [&view] {
         auto latest = view.mailbox().latest();
         return latest ? latest->first : nullptr;
