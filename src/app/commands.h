@@ -24,9 +24,9 @@ struct RunArgs {
   bool realtime = false;
   bool strict = false;
   bool no_progress = false;
-  bool live = false;  ///< scan: a live camera is required
-  std::string snapshot_dir;      ///< --snapshot: CPU-composited PNGs of the views go here
-  std::size_t snapshot_every = 1;  ///< --snapshot-every: every N-th fused frame
+  bool live = false;                ///< scan: a live camera is required
+  std::string snapshot_dir;         ///< --snapshot: CPU-composited PNGs of the views go here
+  std::size_t snapshot_every = 30;  ///< --snapshot-every: every N-th fused frame (and the last)
 };
 
 struct RecordArgs {

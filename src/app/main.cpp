@@ -42,7 +42,9 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
   cmd.add_option("--frames", args.max_frames, "process at most N frames")->check(CLI::PositiveNumber);
   cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
       ->check(CLI::PositiveNumber);
-  cmd.add_flag("--headless", args.headless, "never open a window or touch a display");
+  cmd.add_flag("--headless", args.headless,
+               "never open a window or touch a display (default: the live view, when a display "
+               "is available)");
   cmd.add_flag("--realtime", args.realtime,
                "pace replay by the recorded timestamps, dropping frames like a live camera");
   cmd.add_flag("--strict", args.strict, "an unreadable frame is an error (exit 3), not a skip");
@@ -52,8 +54,9 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
                      "write PNGs of the views (shaded, ssao, normals, depth, orbit) to DIR; "
                      "composited on the CPU, so also with --headless");
   cmd.add_option("--snapshot-every", args.snapshot_every,
-                 "with --snapshot: every N-th fused frame (default 1)")
+                 "with --snapshot: every N-th fused frame, and the last one")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str()
       ->needs(snapshot);
 }
 

@@ -61,7 +61,7 @@ Status run_guarded(const StageDef& stage, FrameWork& frame) {
   }
 }
 
-void capture_loop(Source& source, const PipelineOptions& options,
+void capture_loop(Source& source, std::size_t stage_count, const PipelineOptions& options,
                   const std::atomic<bool>& stop_requested, ObjectPool<FrameWork>& pool,
                   FrameQueue& out, StageStats& stats, ChainState& state) {
   std::optional<double> first_timestamp;
@@ -69,6 +69,9 @@ void capture_loop(Source& source, const PipelineOptions& options,
   while (!stop_requested.load() && !state.failed()) {
     if (options.max_frames && state.frames_read.load() >= *options.max_frames) break;
     FramePtr frame = pool.acquire();
+    frame->stage_ms.assign(stage_count + 1, 0.0);  // keeps its capacity: no allocation
+    frame->export_mesh.reset();
+    frame->export_trajectory.reset();
     const auto t0 = Clock::now();
     Status status;
     try {
@@ -90,7 +93,8 @@ void capture_loop(Source& source, const PipelineOptions& options,
       state.fail(status);
       break;
     }
-    stats.add_ms(ms_since(t0));
+    frame->stage_ms[0] = ms_since(t0);
+    stats.add_ms(frame->stage_ms[0]);
     ++state.frames_read;
     if (options.realtime && !source.live()) {
       // Hold each frame until its recorded time, as a camera would deliver it.
@@ -103,19 +107,22 @@ void capture_loop(Source& source, const PipelineOptions& options,
         std::this_thread::sleep_until(pace_start + std::chrono::duration_cast<Clock::duration>(
                                                        std::chrono::duration<double>(offset_s)));
     }
+    frame->frames_dropped_before = out.dropped();
     if (!out.push(std::move(frame))) break;
   }
   out.close();
 }
 
-void stage_loop(const StageDef& stage, FrameQueue& in, FrameQueue* out, StageStats& stats,
-                ChainState& state, const PipelineOptions& options,
+void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQueue* out,
+                StageStats& stats, ChainState& state, const PipelineOptions& options,
                 const std::optional<std::size_t>& expected) {
   while (std::optional<FramePtr> item = in.pop()) {
     FrameWork& frame = **item;
     const auto t0 = Clock::now();
     const Status status = run_guarded(stage, frame);
-    stats.add_ms(ms_since(t0));
+    const double ms = ms_since(t0);
+    stats.add_ms(ms);
+    if (index < frame.stage_ms.size()) frame.stage_ms[index] = ms;
     if (status.code() == Status::Code::kCorruptFrame) {
       if (options.strict) {
         state.fail(Status::bad_input(status.message()));
@@ -169,7 +176,8 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
   }
 
   std::optional<std::size_t> expected = source.size();
-  if (options.max_frames) expected = expected ? std::min(*expected, *options.max_frames) : *options.max_frames;
+  if (options.max_frames)
+    expected = expected ? std::min(*expected, *options.max_frames) : *options.max_frames;
 
   PipelineResult result;
   result.stages.emplace_back("capture");
@@ -180,14 +188,15 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
     std::vector<std::thread> threads;
     for (std::size_t i = 0; i < stages.size(); ++i) {
       FrameQueue* out = i + 1 < stages.size() ? queues[i + 1].get() : nullptr;
-      threads.emplace_back(stage_loop, std::cref(stages[i]), std::ref(*queues[i]), out,
+      threads.emplace_back(stage_loop, std::cref(stages[i]), i + 1, std::ref(*queues[i]), out,
                            std::ref(result.stages[i + 1]), std::ref(state), std::cref(options),
                            std::cref(expected));
     }
     if (stages.empty()) {
       state.fail(Status::internal("pipeline has no stages"));
     } else {
-      capture_loop(source, options, stop_requested, pool, *queues[0], result.stages[0], state);
+      capture_loop(source, stages.size(), options, stop_requested, pool, *queues[0],
+                   result.stages[0], state);
     }
     for (std::thread& t : threads) t.join();
   }

@@ -18,22 +18,39 @@
 #include "core/config.h"
 #include "core/depth_frame.h"
 #include "core/image.h"
+#include "core/mesh.h"
 #include "core/status.h"
 #include "fusion/preprocess.h"
 #include "fusion/reconstruction.h"
+#include "io/tum.h"
 #include "pipeline/stage_stats.h"
 
 namespace aoscan {
 
 /// Everything one frame accumulates on its way through the chain; recycled between frames.
 struct FrameWork {
-  DepthFrame raw;          ///< as read from the source
-  PreprocessedFrame pre;   ///< metres, outliers removed, filtered, tracking pyramid
-  FusionStep fusion;       ///< tracking status and pose
-  std::shared_ptr<const RaycastResult> raycast;  ///< the model seen from this frame's pose, when tracked
+  DepthFrame raw;         ///< as read from the source
+  PreprocessedFrame pre;  ///< metres, outliers removed, filtered, tracking pyramid
+  FusionStep fusion;      ///< tracking status and pose
+  std::shared_ptr<const RaycastResult>
+      raycast;               ///< the model seen from this frame's pose, when tracked
   PointMaps raw_maps;        ///< camera-frame maps of pre.depth_m (only with ao.input=raw)
   Image<float> ssao;         ///< screen-space AO of this view, 1 = open (empty when not tracked)
   Image<float> ssao_weight;  ///< per-pixel view weight w_d * w_n
+
+  /// Milliseconds this frame spent in each step: [0] = capture (read), [i] = the i-th StageDef,
+  /// filled as it passes (for the HUD; StageStats keep the run's statistics).
+  std::vector<double> stage_ms;
+  std::size_t frames_dropped_before = 0;  ///< capture-edge drops counted when this frame was queued
+  bool integration_paused = false;  ///< the track stage tracked this frame without integrating it
+  bool model_reset = false;         ///< the track stage started a new model with this frame
+  /// Only while a view consumer exists: AO from the MVAO grid at each raycast pixel's world point,
+  /// in [0, 1], NaN = unobserved cell or no surface (filled by the mvao stage after integrating).
+  Image<float> mvao;
+  /// `s` (write outputs now): the surface extracted by the track stage after this frame (world
+  /// frame, no AO yet) and the trajectory so far; the mvao stage adds the AO and writes both.
+  std::shared_ptr<TriangleMesh> export_mesh;
+  std::shared_ptr<const std::vector<StampedPose>> export_trajectory;
 };
 
 /// A processing step of the chain. It runs on its own thread; `process` returns ok to pass the
@@ -70,7 +87,7 @@ struct PipelineOptions {
 struct PipelineResult {
   Status status;  ///< ok, or the first error that stopped the chain
   PipelineCounters counters;
-  double wall_s = 0.0;  ///< first frame read to last frame through the chain
+  double wall_s = 0.0;             ///< first frame read to last frame through the chain
   std::vector<StageStats> stages;  ///< "capture" first, then each StageDef in order
 };
 

@@ -8,11 +8,12 @@
 #include "ao/ssao.h"
 #include "core/log.h"
 #include "io/ply.h"
+#include "pipeline/view_products.h"
 
 namespace aoscan {
 
-Processing::Processing(const Config& config)
-    : config_(config), reconstruction_(config), grid_(config.ao) {}
+Processing::Processing(const Config& config, std::string out_dir)
+    : config_(config), out_dir_(std::move(out_dir)), reconstruction_(config), grid_(config.ao) {}
 
 std::vector<StageDef> Processing::stages() {
   return {
@@ -29,23 +30,33 @@ Status Processing::preprocess(FrameWork& frame) const {
 }
 
 Status Processing::track(FrameWork& frame) {
-  if (reset_requested_.exchange(false)) {
+  frame.model_reset = reset_requested_.exchange(false);
+  if (frame.model_reset) {
     reconstruction_.reset();
+    trajectory_.clear();  // the world frame starts over with this frame
+    ++model_resets_;
     spdlog::info("model reset at frame {}", frame.raw.sequence);
   }
+  frame.integration_paused = paused_.load();
   std::shared_ptr<RaycastResult> raycast = raycasts_.acquire();
-  frame.fusion = reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast, !paused_.load());
+  frame.fusion =
+      reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast, !frame.integration_paused);
   const IcpResult& icp = frame.fusion.icp;
-  spdlog::debug("frame {}: tracking {}, inliers {:.2f}, residual {:.1f} mm, moved {:.1f} mm {:.2f} deg",
-                frame.raw.sequence, to_string(frame.fusion.status), icp.inlier_ratio,
-                icp.rms_residual_m * 1e3, icp.translation_m * 1e3, icp.rotation_deg);
+  spdlog::debug(
+      "frame {}: tracking {}, inliers {:.2f}, residual {:.1f} mm, moved {:.1f} mm {:.2f} deg",
+      frame.raw.sequence, to_string(frame.fusion.status), icp.inlier_ratio,
+      icp.rms_residual_m * 1e3, icp.translation_m * 1e3, icp.rotation_deg);
   if (frame.fusion.status == TrackingStatus::kLost) {
     ++frames_tracking_lost_;
     frame.raycast.reset();
-    return Status::ok();
+  } else {
+    frame.raycast = std::move(raycast);
+    trajectory_.push_back({frame.raw.timestamp_s, frame.fusion.T_world_camera});
   }
-  frame.raycast = std::move(raycast);
-  trajectory_.push_back({frame.raw.timestamp_s, frame.fusion.T_world_camera});
+  if (write_requested_.exchange(false)) {  // `s`: this thread is the TSDF's writer
+    frame.export_mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh());
+    frame.export_trajectory = std::make_shared<const std::vector<StampedPose>>(trajectory_);
+  }
   return Status::ok();
 }
 
@@ -68,19 +79,44 @@ Status Processing::ssao(FrameWork& frame) const {
 }
 
 Status Processing::mvao(FrameWork& frame) {
-  if (frame.ssao.empty()) return Status::ok();
-  const PointMaps& maps =
-      config_.ao.input == AoInput::kRaw ? frame.raw_maps : frame.raycast->maps;
-  return grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera);
+  if (frame.model_reset) grid_.clear();  // the old grid lies in the old model's world frame
+  Status status = Status::ok();
+  if (!frame.ssao.empty()) {
+    const PointMaps& maps =
+        config_.ao.input == AoInput::kRaw ? frame.raw_maps : frame.raycast->maps;
+    status = grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera);
+  }
+  if (view_products_.load() && frame.raycast)
+    mvao_image(grid_, frame.raycast->maps, frame.fusion.T_world_camera, frame.mvao);
+  else
+    frame.mvao.resize(0, 0);
+  if (frame.export_mesh) write_requested_outputs(frame);
+  return status;
+}
+
+void Processing::write_requested_outputs(FrameWork& frame) {
+  const std::filesystem::path dir(out_dir_);
+  try {
+    apply_grid_ao(grid_, *frame.export_mesh);
+    write_ply((dir / "mesh.ply").string(), *frame.export_mesh);
+    write_trajectory((dir / "trajectory.txt").string(), *frame.export_trajectory);
+    ++outputs_written_;
+    spdlog::info("outputs written at frame {}: {} vertices, {} poses", frame.raw.sequence,
+                 frame.export_mesh->vertices.size(), frame.export_trajectory->size());
+  } catch (const std::exception& e) {  // the run goes on; the final export will try again
+    spdlog::warn("writing the outputs now failed: {}", e.what());
+  }
+  frame.export_mesh.reset();
+  frame.export_trajectory.reset();
 }
 
 Processing::ExportStats Processing::write_outputs(const std::string& out_dir) const {
   const std::filesystem::path dir(out_dir);
   write_trajectory((dir / "trajectory.txt").string(), trajectory_);
-  TriangleMesh mesh = reconstruction_.extract_mesh();
-  const std::size_t unobserved = apply_grid_ao(grid_, mesh);
-  write_ply((dir / "mesh.ply").string(), mesh);
-  return {mesh.vertices.size(), mesh.faces.size(), unobserved};
+  auto mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh());
+  const std::size_t unobserved = apply_grid_ao(grid_, *mesh);
+  write_ply((dir / "mesh.ply").string(), *mesh);
+  return {mesh->vertices.size(), mesh->faces.size(), unobserved, mesh};
 }
 
 }  // namespace aoscan

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "core/config.h"
 #include "ao/mvao_grid.h"
+#include "core/config.h"
 #include "core/mesh.h"
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
@@ -22,15 +22,26 @@ namespace aoscan {
 /// Owns the reconstruction and what the stages collect; hands out the stage functions.
 class Processing {
  public:
-  explicit Processing(const Config& config);
+  /// `out_dir`: where the `s` command (request_write_outputs) writes mesh.ply and trajectory.txt.
+  explicit Processing(const Config& config, std::string out_dir = "aoscan-out");
 
   /// The stages in chain order. They capture `this`: keep this object alive while they run.
   std::vector<StageDef> stages();
 
-  /// Asks the track stage to start a new model before its next frame (thread-safe).
+  /// Asks the track stage to start a new model before its next frame: empty TSDF, identity pose,
+  /// empty trajectory; the mvao stage clears the grid when that frame reaches it (thread-safe).
   void request_reset() { reset_requested_.store(true); }
   /// Pauses / resumes integration: frames are still tracked and counted (thread-safe).
   void set_paused(bool paused) { paused_.store(paused); }
+  /// Asks for mesh.ply and trajectory.txt in out_dir now (thread-safe): the track stage extracts
+  /// the surface after its next frame, the mvao stage gives it AO and writes both files.
+  void request_write_outputs() { write_requested_.store(true); }
+  /// While true the mvao stage fills FrameWork::mvao for the view consumers (thread-safe).
+  void set_view_products(bool enabled) { view_products_.store(enabled); }
+
+  /// Models started by request_reset() so far, and on-demand writes done (thread-safe).
+  std::size_t model_resets() const { return model_resets_.load(); }
+  std::size_t outputs_written_on_request() const { return outputs_written_.load(); }
 
   /// Poses of the tracked frames, in order (read after the chain has stopped).
   const std::vector<StampedPose>& trajectory() const { return trajectory_; }
@@ -44,6 +55,7 @@ class Processing {
     std::size_t mesh_vertices = 0;
     std::size_t mesh_faces = 0;
     std::size_t ao_unobserved_vertices = 0;  ///< vertices that took the nearest observed cell's AO
+    std::shared_ptr<const TriangleMesh> mesh;  ///< the mesh written, with its AO
   };
   ExportStats write_outputs(const std::string& out_dir) const;
 
@@ -52,8 +64,10 @@ class Processing {
   Status track(FrameWork& frame);
   Status ssao(FrameWork& frame) const;
   Status mvao(FrameWork& frame);
+  void write_requested_outputs(FrameWork& frame);
 
   Config config_;
+  std::string out_dir_;
   /// Raycasts in flight (tracking reference + downstream); declared before reconstruction_,
   /// which holds one of them, so that it outlives every pointer it handed out.
   ObjectPool<RaycastResult> raycasts_;
@@ -63,6 +77,10 @@ class Processing {
   std::size_t frames_tracking_lost_ = 0;
   std::atomic<bool> reset_requested_{false};
   std::atomic<bool> paused_{false};
+  std::atomic<bool> write_requested_{false};
+  std::atomic<bool> view_products_{false};
+  std::atomic<std::size_t> model_resets_{0};
+  std::atomic<std::size_t> outputs_written_{0};
 };
 
 }  // namespace aoscan

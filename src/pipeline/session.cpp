@@ -3,26 +3,32 @@
 #include "pipeline/session.h"
 
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <thread>
 
-#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
+#include <nlohmann/json.hpp>
 
 #include "core/log.h"
 #include "pipeline/processing.h"
+#include "pipeline/view_stage.h"
+#include "render/live_view.h"
 
 namespace aoscan {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// Prints "frames done/total, fps, time left" on one rewritten stderr line, at most 5 times a second.
+/// Prints "frames done/total, fps, time left" on one rewritten stderr line, at most 5 times a
+/// second.
 class ProgressLine {
  public:
   void update(const Progress& p) {
@@ -32,9 +38,9 @@ class ProgressLine {
     printed_ = true;
     const double fps = p.elapsed_s > 0 ? static_cast<double>(p.frames_processed) / p.elapsed_s : 0;
     if (p.frames_expected && fps > 0) {
-      const double left_s =
-          static_cast<double>(*p.frames_expected - std::min(*p.frames_expected, p.frames_processed)) /
-          fps;
+      const double left_s = static_cast<double>(*p.frames_expected -
+                                                std::min(*p.frames_expected, p.frames_processed)) /
+                            fps;
       std::fprintf(stderr, "\r  %zu/%zu frames  %.1f fps  %.0f s left   ", p.frames_processed,
                    *p.frames_expected, fps, left_s);
     } else {
@@ -51,6 +57,118 @@ class ProgressLine {
   Clock::time_point last_;
 };
 
+/// Carries out the user's commands while the chain runs: polls the queue and the signal flag
+/// every few milliseconds on its own thread, so that neither the window nor a stage waits for it.
+class CommandPump {
+ public:
+  CommandPump(ViewCommandQueue& commands, Processing& processing,
+              const std::atomic<bool>& stop_requested, std::atomic<bool>& chain_stop)
+      : commands_(commands),
+        processing_(processing),
+        stop_requested_(stop_requested),
+        chain_stop_(chain_stop) {}
+
+  /// Applies what is queued now (also called once before the chain starts).
+  void apply_pending() {
+    if (stop_requested_.load()) chain_stop_.store(true);
+    while (const std::optional<ViewCommand> command = commands_.poll()) {
+      spdlog::info("command: {}", command_name(*command));
+      switch (*command) {
+        case ViewCommand::kResetModel:
+          processing_.request_reset();
+          break;
+        case ViewCommand::kPauseIntegration:
+          processing_.set_paused(true);
+          break;
+        case ViewCommand::kResumeIntegration:
+          processing_.set_paused(false);
+          break;
+        case ViewCommand::kWriteOutputs:
+          processing_.request_write_outputs();
+          break;
+        case ViewCommand::kQuit:
+          quit_ = true;
+          chain_stop_.store(true);
+          break;
+      }
+    }
+    if (commands_.quit_requested()) {  // kept even when the queue was full
+      quit_ = true;
+      chain_stop_.store(true);
+    }
+  }
+
+  void start() {
+    thread_ = std::thread([this] {
+      while (!done_.load()) {
+        apply_pending();
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    });
+  }
+  /// Stops the thread (idempotent).
+  void stop() {
+    done_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
+  ~CommandPump() { stop(); }
+  bool quit() const { return quit_.load(); }
+
+ private:
+  ViewCommandQueue& commands_;
+  Processing& processing_;
+  const std::atomic<bool>& stop_requested_;
+  std::atomic<bool>& chain_stop_;
+  std::atomic<bool> done_{false};
+  std::atomic<bool> quit_{false};
+  std::thread thread_;
+};
+
+/// Redraws per second of the live view (the camera delivers 30 frames a second), and the nice
+/// increment of its thread.
+constexpr double kWindowRedrawHz = 30.0;
+constexpr int kWindowNice = 10;
+
+/// The live view on its own thread; stopped and joined by stop() or the destructor.
+class WindowThread {
+ public:
+  /// `on_unavailable` runs on the window thread when no window could be made.
+  WindowThread(ViewStage& view, ViewCommandQueue& commands, const std::string& title,
+               std::function<void()> on_unavailable) {
+    LiveViewOptions options;
+    options.window.title = title;
+    options.max_redraw_hz = kWindowRedrawHz;
+    thread_ = std::thread([this, options, &view, &commands, on_unavailable] {
+      // The window yields the CPU to fusion: a lower priority for this thread and the threads
+      // the GL driver starts from it (software GL such as llvmpipe renders on the CPU).
+      if (setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWindowNice) != 0)
+        spdlog::debug("live view: could not lower the window thread's priority");
+      const ViewFeed feed = [&view] {
+        auto latest = view.mailbox().latest();
+        return latest ? latest->first : nullptr;
+      };
+      const LiveViewResult result = run_live_view(options, feed, commands, stop_);
+      if (result.outcome == LiveViewResult::Outcome::kUnavailable) {
+        on_unavailable();
+      } else {
+        shown_.store(true);
+        spdlog::info("live view closed after {} redraws ({})", result.redraws, result.gl_renderer);
+      }
+    });
+  }
+  void stop() {
+    stop_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
+  ~WindowThread() { stop(); }
+  bool shown() const { return shown_.load(); }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> shown_{false};
+  std::thread thread_;
+};
+
 void write_stats_json(const std::string& path, const SessionResult& r, int threads) {
   nlohmann::json j;
   const PipelineCounters& c = r.pipeline.counters;
@@ -60,15 +178,16 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["frames_corrupt"] = c.frames_corrupt;
   j["frames_tracking_lost"] = c.frames_tracking_lost;
   j["wall_s"] = r.pipeline.wall_s;
-  j["fps"] = r.pipeline.wall_s > 0 ? static_cast<double>(c.frames_processed) / r.pipeline.wall_s : 0.0;
+  j["fps"] =
+      r.pipeline.wall_s > 0 ? static_cast<double>(c.frames_processed) / r.pipeline.wall_s : 0.0;
   j["export_s"] = r.export_s;
   j["threads"] = threads;
   j["peak_rss_mb"] = peak_rss_mb();
   nlohmann::json stages = nlohmann::json::object();
   for (const StageStats& s : r.pipeline.stages) {
     const TimingSummary t = s.summary();
-    stages[s.name()] = {{"ms_mean", t.ms_mean}, {"ms_p50", t.ms_p50}, {"ms_p95", t.ms_p95},
-                        {"ms_max", t.ms_max}};
+    stages[s.name()] = {
+        {"ms_mean", t.ms_mean}, {"ms_p50", t.ms_p50}, {"ms_p95", t.ms_p95}, {"ms_max", t.ms_max}};
   }
   j["stages"] = stages;
   j["mesh"] = {{"vertices", r.mesh_vertices},
@@ -78,6 +197,10 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["tsdf"] = {{"blocks", r.tsdf_blocks},
                {"memory_mb", r.tsdf_memory_mb},
                {"capacity_reached", r.tsdf_capacity_reached}};
+  j["snapshot_files"] = r.snapshot_files;
+  j["model_resets"] = r.model_resets;
+  j["outputs_written_on_request"] = r.outputs_written_on_request;
+  j["quit_by_user"] = r.quit_by_user;
   j["status"] = r.exit_code == ExitCode::kOk ? "ok" : r.error;
   std::ofstream out(path);
   out << j.dump(2) << "\n";
@@ -115,16 +238,61 @@ SessionResult run_session(Source& source, const SessionOptions& options,
     popts.on_progress = [&progress](const Progress& p) { progress.update(p); };
 
   SessionResult result;
-  Processing processing(options.config);
-  result.pipeline = run_pipeline(source, processing.stages(), popts, stop_requested);
+  Processing processing(options.config, options.out_dir);
+  std::vector<StageDef> stages = processing.stages();
+
+  // The view stage exists only when something consumes its frames.
+  std::unique_ptr<ViewStage> view;
+  if (options.live_view || !options.snapshot_dir.empty()) {
+    ViewStageOptions vopts;
+    vopts.stage_names.push_back("capture");
+    for (const StageDef& stage : stages) vopts.stage_names.push_back(stage.name);
+    vopts.publish = options.live_view;
+    if (!options.snapshot_dir.empty()) {
+      SnapshotOptions snapshots;
+      snapshots.dir = options.snapshot_dir;
+      snapshots.every_n = options.snapshot_every;
+      vopts.snapshots = snapshots;
+    }
+    view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
+    processing.set_view_products(true);
+    ViewStage* stage = view.get();
+    stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
+  }
+
+  ViewCommandQueue own_commands;
+  ViewCommandQueue& commands = options.commands ? *options.commands : own_commands;
+  std::atomic<bool> chain_stop{false};
+  CommandPump pump(commands, processing, stop_requested, chain_stop);
+  pump.apply_pending();  // commands queued before the start apply from the first frame
+  std::unique_ptr<WindowThread> window;
+  if (options.live_view) {
+    const bool snapshots = !options.snapshot_dir.empty();
+    ViewStage* stage = view.get();
+    window = std::make_unique<WindowThread>(
+        *view, commands, "aoscan: " + source.name(), [stage, snapshots, &processing] {
+          stage->set_publish(false);  // nothing shows the frames: stop building them for it
+          if (!snapshots) processing.set_view_products(false);
+        });
+  }
+  pump.start();
+  result.pipeline = run_pipeline(source, stages, popts, chain_stop);
+  pump.stop();
+  if (window) {
+    window->stop();
+    result.live_view_shown = window->shown();
+  }
   result.pipeline.counters.frames_tracking_lost = processing.frames_tracking_lost();
+  result.model_resets = processing.model_resets();
+  result.outputs_written_on_request = processing.outputs_written_on_request();
+  result.quit_by_user = pump.quit();
   progress.finish();
 
   const Status& status = result.pipeline.status;
   result.exit_code = status.exit_code();
   if (result.exit_code != ExitCode::kOk) {
     result.error = status.message();
-  } else if (result.pipeline.counters.frames_processed == 0 && !stop_requested.load()) {
+  } else if (result.pipeline.counters.frames_processed == 0 && !chain_stop.load()) {
     result.exit_code = ExitCode::kBadInput;
     result.error = source.name() + ": no usable frame (" +
                    std::to_string(result.pipeline.counters.frames_corrupt) + " unreadable)";
@@ -145,9 +313,15 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   result.tsdf_blocks = static_cast<std::size_t>(volume.block_count());
   result.tsdf_memory_mb = static_cast<double>(volume.memory_bytes()) / (1024.0 * 1024.0);
   result.tsdf_capacity_reached = volume.capacity_reached();
+  if (view) {
+    view->finish(exported.mesh);  // the last set of snapshots shows the final mesh in orbit
+    result.snapshot_files = view->snapshot_files();
+  }
   if (result.tsdf_capacity_reached)
-    spdlog::warn("the TSDF reached its capacity of {} blocks (fusion.max_blocks): surface beyond it "
-                 "was not fused", volume.max_blocks());
+    spdlog::warn(
+        "the TSDF reached its capacity of {} blocks (fusion.max_blocks): surface beyond it "
+        "was not fused",
+        volume.max_blocks());
   write_stats_json((std::filesystem::path(options.out_dir) / "stats.json").string(), result,
                    threads);
   spdlog::info("{} frames processed in {:.2f} s", result.pipeline.counters.frames_processed,

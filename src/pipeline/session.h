@@ -3,12 +3,14 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <optional>
 #include <string>
 
 #include "capture/source.h"
 #include "core/config.h"
 #include "pipeline/pipeline.h"
+#include "render/view_commands.h"
 
 namespace aoscan {
 
@@ -20,6 +22,16 @@ struct SessionOptions {
   bool realtime = false;
   bool strict = false;
   bool show_progress = false;  ///< a progress line on stderr (when it is a terminal)
+
+  /// Open the live view on its own thread. When no window can be made (no display, GL too old,
+  /// shader failure) one warning line is logged and the run goes on headless.
+  bool live_view = false;
+  std::string snapshot_dir;           ///< non-empty: PNGs of the views (CPU composited) go here
+  std::uint64_t snapshot_every = 30;  ///< snapshots of every N-th processed frame, and the last
+  /// The user's commands (keys of the live view). Null: the session's own queue, which only the
+  /// window feeds. Polled every few milliseconds while the chain runs: reset, pause/resume,
+  /// write outputs now, quit (= SIGINT: stop capture, finish the frames in flight, write outputs).
+  ViewCommandQueue* commands = nullptr;
 };
 
 struct SessionResult {
@@ -35,11 +47,17 @@ struct SessionResult {
   std::size_t tsdf_blocks = 0;
   double tsdf_memory_mb = 0.0;
   bool tsdf_capacity_reached = false;
+  std::size_t snapshot_files = 0;              ///< PNGs written by --snapshot
+  std::size_t model_resets = 0;                ///< `r` commands carried out
+  std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
+  bool quit_by_user = false;                   ///< `q`, Esc or the window closed
+  bool live_view_shown = false;                ///< a window was open during the run
 };
 
-/// Runs `source` through the chain, then writes trajectory.txt, mesh.ply and stats.json into
-/// options.out_dir — also when the run stopped on an error or a signal, so nothing
-/// already fused is lost. Throws Error only when the output folder cannot be created.
+/// Runs `source` through the chain (plus a "view" stage when a window or snapshots are wanted),
+/// then writes trajectory.txt, mesh.ply and stats.json into options.out_dir — also when the run
+/// stopped on an error, a signal or the user's quit, so nothing already fused is lost. Throws
+/// Error only when the output or snapshot folder cannot be created.
 SessionResult run_session(Source& source, const SessionOptions& options,
                           const std::atomic<bool>& stop_requested);
 

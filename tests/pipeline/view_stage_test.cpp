@@ -1,0 +1,327 @@
+// Tests for src/pipeline/view_stage.cpp, view_products.cpp and the session's view wiring:
+// snapshots of a short replay, a slow window never blocks the chain, the user's commands.
+#include "pipeline/view_stage.h"
+
+#include <png.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "capture/source.h"
+#include "fake_source.h"
+#include "io/tum.h"
+#include "pipeline/session.h"
+#include "pipeline/view_products.h"
+
+namespace aoscan {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_view_" + name);
+  fs::remove_all(dir);
+  return dir;
+}
+
+/// Width and height of a PNG (0, 0 when unreadable).
+std::pair<int, int> png_size(const fs::path& path) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) return {0, 0};
+  png_image_free(&image);
+  return {static_cast<int>(image.width), static_cast<int>(image.height)};
+}
+
+/// Camera-frame maps of a fronto-parallel wall at `depth_m` (every pixel valid).
+PointMaps wall_maps(int width, int height, float depth_m) {
+  PointMaps maps;
+  maps.intrinsics.width = width;
+  maps.intrinsics.height = height;
+  maps.intrinsics.fx = maps.intrinsics.fy = width;
+  maps.intrinsics.cx = 0.5 * width;
+  maps.intrinsics.cy = 0.5 * height;
+  maps.vertices.resize(width, height, Eigen::Vector3f(Eigen::Vector3f::Zero()));
+  maps.normals.resize(width, height, Eigen::Vector3f(0, 0, -1));
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      maps.vertices(x, y) =
+          maps.intrinsics.unproject(static_cast<float>(x), static_cast<float>(y), depth_m);
+  return maps;
+}
+
+TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
+  AoConfig config;
+  MvaoGrid grid(config);
+  const PointMaps maps = wall_maps(64, 48, 1.0f);
+  Image<float> ao(64, 48), weight(64, 48, 1.0f);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) ao(x, y) = (x < 32) ? 0.25f : 0.75f;
+  for (int y = 24; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) weight(x, y) = 0.0f;  // lower half never observed
+  ASSERT_TRUE(grid.integrate(ao, weight, maps, Pose()).is_ok());
+
+  PointMaps seen = maps;
+  seen.vertices(5, 5).setZero();  // no surface
+  Image<float> fast, reference;
+  mvao_image(grid, seen, Pose(), fast);
+  mvao_image_reference(grid, seen, Pose(), reference);
+  ASSERT_EQ(fast.width(), 64);
+  ASSERT_EQ(fast.height(), 48);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const float f = fast(x, y), r = reference(x, y);
+      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
+    }
+  EXPECT_TRUE(std::isnan(fast(5, 5)));
+  EXPECT_FLOAT_EQ(fast(2, 10), 0.25f);    // a cell only the left half touched
+  EXPECT_FLOAT_EQ(fast(60, 10), 0.75f);   // only the right half
+  EXPECT_TRUE(std::isnan(fast(10, 46)));  // unobserved cell
+}
+
+TEST(SurfaceCloud, OnePointPerVoxelWithTheNewestObservedAo) {
+  SurfaceCloudOptions options;
+  options.voxel_m = 0.05;
+  options.pixel_step = 1;
+  SurfaceCloud cloud(options);
+  // A wall at 1 m seen by 40x40 pixels of focal length 40: 1 m x 1 m → 20 x 20 voxels of 5 cm.
+  PointMaps maps = wall_maps(40, 40, 1.0f);
+  Image<float> ao(40, 40, 0.5f);
+  cloud.add(maps, ao, Pose());
+  const std::size_t points = cloud.size();
+  EXPECT_GE(points, 400u);
+  EXPECT_LE(points, 21u * 21u);
+  ao.resize(40, 40, std::numeric_limits<float>::quiet_NaN());
+  cloud.add(maps, ao, Pose());  // NaN AO keeps the observed value
+  ao.resize(40, 40, 0.9f);
+  ao(0, 0) = 0.9f;
+  std::shared_ptr<const TriangleMesh> before = cloud.to_mesh();
+  cloud.add(maps, ao, Pose());
+  EXPECT_EQ(cloud.size(), points);  // same voxels: no new point
+  const std::shared_ptr<const TriangleMesh> mesh = cloud.to_mesh();
+  ASSERT_EQ(mesh->quality.size(), points);
+  EXPECT_TRUE(mesh->faces.empty());
+  for (std::size_t i = 0; i < points; ++i) {
+    EXPECT_FLOAT_EQ(before->quality[i], 0.5f);
+    EXPECT_FLOAT_EQ(mesh->quality[i], 0.9f);
+    EXPECT_NEAR(mesh->vertices[i].z(), 1.0f, 1e-6);
+  }
+  cloud.clear();
+  EXPECT_EQ(cloud.size(), 0u);
+
+  SurfaceCloudOptions small = options;
+  small.max_points = 10;
+  SurfaceCloud bounded(small);
+  bounded.add(maps, ao, Pose());
+  EXPECT_EQ(bounded.size(), 10u);
+  EXPECT_GT(bounded.points_refused(), 0u);
+}
+
+TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
+  const fs::path out = fresh_dir("snap_out");
+  const fs::path snaps = fresh_dir("snap_png");
+  std::unique_ptr<Source> source = open_source("synth:corner?frames=8&width=160&height=120");
+  SessionOptions options;
+  options.out_dir = out.string();
+  options.threads = 2;
+  options.snapshot_dir = snaps.string();
+  options.snapshot_every = 4;
+  std::atomic<bool> stop{false};
+  const SessionResult r = run_session(*source, options, stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_EQ(r.pipeline.counters.frames_processed, 8u);
+  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 5 views.
+  std::set<std::string> names;
+  for (const auto& e : fs::directory_iterator(snaps)) names.insert(e.path().filename().string());
+  std::set<std::string> expected;
+  for (const char* view : {"shaded", "ssao", "normals", "depth", "orbit"})
+    for (const char* seq : {"000000", "000004", "000007"})
+      expected.insert(std::string(view) + "_" + seq + ".png");
+  EXPECT_EQ(names, expected);
+  EXPECT_EQ(r.snapshot_files, 15u);
+  for (const std::string& name : expected) {
+    const auto [w, h] = png_size(snaps / name);
+    EXPECT_EQ(w, 160) << name;
+    EXPECT_EQ(h, 120) << name;
+  }
+  for (const char* f : {"mesh.ply", "trajectory.txt", "stats.json"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+}
+
+TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
+  ViewStageOptions options;
+  options.stage_names = {"capture", "view"};
+  options.publish = true;
+  ViewStage view(options);
+  // The "window" takes the newest frame every 50 ms and holds on to every frame it took.
+  std::atomic<bool> done{false};
+  std::vector<std::shared_ptr<const ViewFrame>> held;
+  std::thread window([&] {
+    while (!done.load()) {
+      if (auto latest = view.mailbox().latest()) held.push_back(latest->first);
+      std::this_thread::sleep_for(50ms);
+    }
+  });
+  testing::FakeSource source(100);
+  PipelineOptions popts;
+  std::atomic<bool> stop{false};
+  const auto t0 = std::chrono::steady_clock::now();
+  const PipelineResult r = run_pipeline(
+      source, {{"view", [&view](FrameWork& f) { return view.process(f); }}}, popts, stop);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  done.store(true);
+  window.join();
+  ASSERT_TRUE(r.status.is_ok()) << r.status.message();
+  EXPECT_EQ(r.counters.frames_processed, 100u);
+  EXPECT_EQ(view.mailbox().version(), 100u);  // every frame was published
+  // Waiting for the window would take 100 x 50 ms = 5 s.
+  EXPECT_LT(seconds, 2.0);
+  const auto latest = view.mailbox().latest();
+  ASSERT_TRUE(latest);
+  EXPECT_EQ(latest->first->sequence, 99u);
+  EXPECT_EQ(latest->first->hud.frames_processed, 100u);
+  EXPECT_EQ(latest->first->depth_m.width(), 8);  // untracked frame: sized, without surface
+  EXPECT_EQ(latest->first->depth_m(0, 0), 0.0f);
+}
+
+/// A synthetic source that pushes user commands when it reaches given frames and can wait
+/// there for a condition, like a user pressing keys during a scan.
+class ScriptedSource : public Source {
+ public:
+  ScriptedSource(const std::string& spec, ViewCommandQueue& commands)
+      : inner_(open_source(spec)), commands_(commands) {}
+  Status read(DepthFrame& frame) override {
+    const std::size_t index = next_++;
+    for (const auto& [at, command] : script_)
+      if (at == index) commands_.push(command);
+    if (wait_at_ == index && wait_for_) {
+      const auto until = std::chrono::steady_clock::now() + 10s;
+      while (!wait_for_() && std::chrono::steady_clock::now() < until)
+        std::this_thread::sleep_for(2ms);
+      condition_met_ = wait_for_();
+    }
+    if (period_.count() > 0 && index > 0) std::this_thread::sleep_for(period_);
+    return inner_->read(frame);
+  }
+  std::string name() const override { return inner_->name(); }
+  const Intrinsics& intrinsics() const override { return inner_->intrinsics(); }
+  double depth_scale() const override { return inner_->depth_scale(); }
+  std::optional<std::size_t> size() const override { return inner_->size(); }
+  bool live() const override { return false; }
+
+  std::vector<std::pair<std::size_t, ViewCommand>> script_;
+  std::chrono::milliseconds period_{0};
+  std::size_t wait_at_ = ~std::size_t{0};
+  std::function<bool()> wait_for_;
+  bool condition_met_ = false;
+
+ private:
+  std::unique_ptr<Source> inner_;
+  ViewCommandQueue& commands_;
+  std::size_t next_ = 0;
+};
+
+constexpr const char* kCorner = "synth:corner?frames=16&width=160&height=120";
+
+SessionOptions command_session(const fs::path& out, ViewCommandQueue& commands) {
+  SessionOptions options;
+  options.out_dir = out.string();
+  options.threads = 2;
+  options.commands = &commands;
+  return options;
+}
+
+TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
+  std::atomic<bool> stop{false};
+  ViewCommandQueue commands;
+  commands.push(ViewCommand::kPauseIntegration);  // before the first frame
+  ScriptedSource paused(kCorner, commands);
+  const fs::path out = fresh_dir("pause");
+  const SessionResult r = run_session(paused, command_session(out, commands), stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_EQ(r.pipeline.counters.frames_processed, 16u);
+  // Only the first frame, which starts the model (fusion integrates it even when paused), is in
+  // the mesh: the same mesh as a one-frame run.
+  ViewCommandQueue unused;
+  ScriptedSource one("synth:corner?frames=1&width=160&height=120", unused);
+  const SessionResult r1 = run_session(one, command_session(fresh_dir("one"), unused), stop);
+  ASSERT_EQ(r1.exit_code, ExitCode::kOk) << r1.error;
+  EXPECT_GT(r1.mesh_vertices, 0u);
+  EXPECT_EQ(r.mesh_vertices, r1.mesh_vertices);
+
+  ViewCommandQueue commands2;
+  commands2.push(ViewCommand::kPauseIntegration);
+  ScriptedSource resumed(kCorner, commands2);
+  resumed.script_ = {{4, ViewCommand::kResumeIntegration}};
+  resumed.period_ = 20ms;  // time for the command to arrive while frames remain
+  const SessionResult r2 =
+      run_session(resumed, command_session(fresh_dir("resume"), commands2), stop);
+  ASSERT_EQ(r2.exit_code, ExitCode::kOk) << r2.error;
+  EXPECT_GT(r2.mesh_vertices, r.mesh_vertices);
+}
+
+TEST(SessionCommands, ResetStartsANewModelAndTrajectory) {
+  std::atomic<bool> stop{false};
+  ViewCommandQueue commands;
+  ScriptedSource source(kCorner, commands);
+  source.script_ = {{6, ViewCommand::kResetModel}};
+  source.period_ = 20ms;
+  const fs::path out = fresh_dir("reset");
+  const SessionResult r = run_session(source, command_session(out, commands), stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_EQ(r.model_resets, 1u);
+  const std::vector<StampedPose> trajectory = read_trajectory((out / "trajectory.txt").string());
+  ASSERT_FALSE(trajectory.empty());
+  // The track stage takes the reset before its next frame (capture may be a few frames ahead of
+  // it): the trajectory holds only the frames from there on.
+  EXPECT_LT(trajectory.size(), 16u);
+  EXPECT_GT(trajectory.front().timestamp_s, 0.0);
+  EXPECT_NEAR(trajectory.back().timestamp_s, 15.0 / 30.0, 1e-6);
+  // The new model's world frame is the camera frame of its first frame.
+  EXPECT_LT(trajectory.front().T_world_camera.translation().norm(), 1e-9);
+  EXPECT_GT(r.mesh_vertices, 0u);
+}
+
+TEST(SessionCommands, WriteOutputsNowWritesTheMeshMidRun) {
+  std::atomic<bool> stop{false};
+  ViewCommandQueue commands;
+  ScriptedSource source(kCorner, commands);
+  const fs::path out = fresh_dir("write_now");
+  source.script_ = {{3, ViewCommand::kWriteOutputs}};
+  // Frame 8 is read only once mesh.ply and trajectory.txt exist: they came from `s`.
+  source.wait_at_ = 8;
+  source.wait_for_ = [&out] {
+    return fs::exists(out / "mesh.ply") && fs::exists(out / "trajectory.txt");
+  };
+  const SessionResult r = run_session(source, command_session(out, commands), stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_TRUE(source.condition_met_);
+  EXPECT_EQ(r.outputs_written_on_request, 1u);
+  EXPECT_EQ(r.pipeline.counters.frames_processed, 16u);
+}
+
+TEST(SessionCommands, QuitStopsLikeSigintWithOutputs) {
+  std::atomic<bool> stop{false};
+  ViewCommandQueue commands;
+  ScriptedSource source("synth:corner?frames=100000&width=160&height=120", commands);
+  source.script_ = {{5, ViewCommand::kQuit}};
+  const fs::path out = fresh_dir("quit");
+  const SessionResult r = run_session(source, command_session(out, commands), stop);
+  EXPECT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_TRUE(r.quit_by_user);
+  EXPECT_GE(r.pipeline.counters.frames_processed, 5u);
+  EXPECT_LT(r.pipeline.counters.frames_processed, 1000u);
+  EXPECT_EQ(r.pipeline.counters.frames_processed, r.pipeline.counters.frames_read);
+  for (const char* f : {"mesh.ply", "trajectory.txt", "stats.json"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+}
+
+}  // namespace
+}  // namespace aoscan
