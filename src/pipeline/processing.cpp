@@ -1,5 +1,5 @@
 /// @file processing.cpp
-/// @brief The preprocess and track+integrate stages and the outputs they leave.
+/// @brief The processing stages and the outputs they leave.
 #include "pipeline/processing.h"
 
 #include <filesystem>
@@ -18,6 +18,7 @@ Processing::Processing(const Config& config, std::string out_dir)
 std::vector<StageDef> Processing::stages() {
   return {
       {"preprocess", [this](FrameWork& frame) { return preprocess(frame); }},
+      {"filter", [this](FrameWork& frame) { return filter(frame); }},
       {"track", [this](FrameWork& frame) { return track(frame); }},
       {"ssao", [this](FrameWork& frame) { return ssao(frame); }},
       {"mvao", [this](FrameWork& frame) { return mvao(frame); }},
@@ -25,7 +26,13 @@ std::vector<StageDef> Processing::stages() {
 }
 
 Status Processing::preprocess(FrameWork& frame) const {
-  preprocess_frame(frame.raw, config_.preprocess, frame.pre);
+  preprocess_depth(frame.raw, config_.preprocess, frame.pre.depth_m);
+  return Status::ok();
+}
+
+Status Processing::filter(FrameWork& frame) const {
+  bilateral_filter(frame.pre.depth_m, config_.preprocess, frame.pre.filtered_m);
+  build_pyramid(frame.pre.filtered_m, frame.raw.intrinsics, config_.preprocess, frame.pre.pyramid);
   return Status::ok();
 }
 

@@ -1,6 +1,7 @@
 /// @file processing.h
 /// @brief aoscan's processing stages and the state each one owns (one writer per structure):
-/// preprocess → track+integrate(+raycast) → ssao → mvao. Used by replay/scan sessions and by the
+/// preprocess (metres, border outliers) → filter (bilateral, pyramid, vertex and normal maps) →
+/// track+integrate(+raycast) → ssao → mvao. Used by replay/scan sessions and by the
 /// benchmark.
 #pragma once
 
@@ -61,6 +62,7 @@ class Processing {
 
  private:
   Status preprocess(FrameWork& frame) const;
+  Status filter(FrameWork& frame) const;
   Status track(FrameWork& frame);
   Status ssao(FrameWork& frame) const;
   Status mvao(FrameWork& frame);

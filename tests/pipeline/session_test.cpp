@@ -41,7 +41,7 @@ TEST(Session, WritesStatsJsonWithTheContractKeys) {
   EXPECT_NEAR(j["fps"].get<double>(), 24.0 / j["wall_s"].get<double>(), 1e-6);
   EXPECT_GE(j["export_s"].get<double>(), 0.0);
   EXPECT_GT(j["peak_rss_mb"].get<double>(), 1.0);
-  for (const char* stage : {"capture", "preprocess", "track", "ssao", "mvao"}) {
+  for (const char* stage : {"capture", "preprocess", "filter", "track", "ssao", "mvao"}) {
     ASSERT_TRUE(j["stages"].contains(stage)) << stage;
     const auto& s = j["stages"][stage];
     EXPECT_LE(s["ms_p50"].get<double>(), s["ms_max"].get<double>());

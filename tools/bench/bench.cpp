@@ -40,14 +40,21 @@ void print_table(const std::string& title, const std::vector<StageStats>& stages
 }
 
 /// Every stage in turn on one thread, frame by frame.
+/// The first `count` processing stages (all when count is 0).
+std::vector<StageDef> first_stages(Processing& processing, std::size_t count) {
+  std::vector<StageDef> stages = processing.stages();
+  if (count > 0 && count < stages.size()) stages.resize(count);
+  return stages;
+}
+
 int run_serial(const std::string& spec, const Config& config, std::optional<std::size_t> max_frames,
-               int repeat) {
+               int repeat, std::size_t stage_count) {
   std::vector<StageStats> stats;
   std::size_t frames = 0, lost = 0;
   double wall_s = 0;
   for (int r = 0; r < repeat; ++r) {
     Processing processing(config);  // every pass starts a new model
-    const std::vector<StageDef> stages = processing.stages();
+    const std::vector<StageDef> stages = first_stages(processing, stage_count);
     if (stats.empty()) {
       stats.emplace_back("capture");
       for (const StageDef& s : stages) stats.emplace_back(s.name);
@@ -80,7 +87,7 @@ int run_serial(const std::string& spec, const Config& config, std::optional<std:
 
 /// The threaded chain as replay runs it.
 int run_chain(const std::string& spec, const Config& config, std::optional<std::size_t> max_frames,
-              int repeat) {
+              int repeat, std::size_t stage_count) {
   std::vector<StageStats> all;
   double wall_s = 0;
   std::size_t frames = 0, lost = 0;
@@ -91,7 +98,7 @@ int run_chain(const std::string& spec, const Config& config, std::optional<std::
     options.queue_capacity = static_cast<std::size_t>(config.pipeline.queue_capacity);
     std::atomic<bool> stop{false};
     Processing processing(config);
-    PipelineResult result = run_pipeline(*source, processing.stages(), options, stop);
+    PipelineResult result = run_pipeline(*source, first_stages(processing, stage_count), options, stop);
     if (!result.status.is_ok()) throw Error(result.status.exit_code(), result.status.message());
     if (all.empty()) {
       all = std::move(result.stages);
@@ -118,7 +125,10 @@ int run(int argc, char** argv) {
   int repeat = 1;
   bool chain = false;
   app.add_option("SOURCE", spec, "recording folder or synth: scene")->required();
+  std::size_t stage_count = 0;
   app.add_option("--frames", max_frames, "at most N frames per pass");
+  app.add_option("--stages", stage_count,
+                 "run only the first N processing stages (1 = read + decode + border outliers)");
   app.add_option("--repeat", repeat, "passes over the source")->check(CLI::PositiveNumber);
   app.add_option("--threads", threads, "threads for data-parallel kernels")->capture_default_str();
   app.add_option("--config", config_file, "configuration file");
@@ -130,8 +140,8 @@ int run(int argc, char** argv) {
     const Config config = load_config(config_file, sets);
     tbb::global_control budget(tbb::global_control::max_allowed_parallelism,
                                static_cast<std::size_t>(threads));
-    return chain ? run_chain(spec, config, max_frames, repeat)
-                 : run_serial(spec, config, max_frames, repeat);
+    return chain ? run_chain(spec, config, max_frames, repeat, stage_count)
+                 : run_serial(spec, config, max_frames, repeat, stage_count);
   } catch (const Error& e) {
     std::fprintf(stderr, "aoscan-bench: error: %s\n", e.what());
     return static_cast<int>(e.code());
