@@ -12,37 +12,12 @@
 #include <vector>
 
 #include "capture/kinect_disparity.h"
+#include "capture/output_file.h"
 
 namespace aoscan {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
-
-[[noreturn]] void write_failed(const std::string& path) {
-  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno ? errno : EIO));
-}
-
-void close_checked(File& file, const std::string& path) {
-  if (!file) return;
-  const bool failed = std::ferror(file.get()) != 0;
-  if (std::fclose(file.release()) != 0 || failed) write_failed(path);
-}
-
-[[noreturn]] void throw_for(const Status& status) {
-  switch (status.code()) {
-    case Status::Code::kBadInput:
-      throw input_error(status.message());
-    case Status::Code::kDeviceLost:
-      throw device_error(status.message());
-    default:
-      throw Error(ExitCode::kFailure, status.message());
-  }
-}
 
 }  // namespace
 
@@ -64,8 +39,7 @@ FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
   fs::create_directories(root, ec);
   if (ec) throw Error(ExitCode::kFailure, root + ": cannot create folder: " + ec.message());
 
-  File index(std::fopen(index_path.c_str(), "wb"));
-  if (!index) write_failed(index_path);
+  OutputFile index = open_output(index_path);
 
   FakenectDumpStats stats;
   DepthFrame frame;
@@ -84,7 +58,7 @@ FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
     }
     if (!status.is_ok()) {
       close_checked(index, index_path);
-      throw_for(status);
+      throw_for_status(status);
     }
     if (frame.depth.width() != kFakenectWidth || frame.depth.height() != kFakenectHeight) {
       close_checked(index, index_path);
@@ -116,16 +90,15 @@ FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
     const std::string name = fakenect_depth_file_name(frame.timestamp_s, ticks);
     const std::string path = root + "/" + name;
     {
-      File pgm(std::fopen(path.c_str(), "wb"));
-      if (!pgm) write_failed(path);
+      OutputFile pgm = open_output(path);
       if (std::fwrite(header.data(), 1, header.size(), pgm.get()) != header.size() ||
           std::fwrite(disparity.data(), sizeof(std::uint16_t), disparity.size(), pgm.get()) !=
               disparity.size())
-        write_failed(path);
+        throw_write_failed(path);
       close_checked(pgm, path);
     }
     if (std::fprintf(index.get(), "%s\n", name.c_str()) < 0 || std::fflush(index.get()) != 0)
-      write_failed(index_path);
+      throw_write_failed(index_path);
     ++stats.frames_written;
   }
   close_checked(index, index_path);

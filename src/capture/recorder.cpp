@@ -10,6 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "capture/output_file.h"
 #include "capture/png_depth.h"
 #include "io/camera_json.h"
 #include "io/ply.h"
@@ -19,23 +20,6 @@ namespace aoscan {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
-
-[[noreturn]] void write_failed(const std::string& path) {
-  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno ? errno : EIO));
-}
-
-/// Closes `file`, throwing when buffered data could not be written.
-void close_checked(File& file, const std::string& path) {
-  if (!file) return;
-  const bool failed = std::ferror(file.get()) != 0;
-  const int rc = std::fclose(file.release());
-  if (failed || rc != 0) write_failed(path);
-}
 
 /// The source's name on one line, for the depth.txt header.
 std::string one_line(std::string s) {
@@ -67,11 +51,10 @@ RecordStats record_source(Source& source, const std::string& dir,
 
   if (const TriangleMesh* mesh = source.scene_mesh()) write_ply(root + "/scene.ply", *mesh);
 
-  File list(std::fopen(list_path.c_str(), "wb"));
-  if (!list) write_failed(list_path);
+  OutputFile list = open_output(list_path);
   std::fprintf(list.get(), "# depth maps recorded by aoscan from %s\n# timestamp filename\n",
                one_line(source.name()).c_str());
-  if (std::fflush(list.get()) != 0) write_failed(list_path);
+  if (std::fflush(list.get()) != 0) throw_write_failed(list_path);
 
   const std::string gt_path = root + "/groundtruth.txt";
   std::unique_ptr<TrajectoryWriter> ground_truth;
@@ -99,14 +82,7 @@ RecordStats record_source(Source& source, const std::string& dir,
     }
     if (!status.is_ok()) {
       finish();
-      switch (status.code()) {
-        case Status::Code::kBadInput:
-          throw input_error(status.message());
-        case Status::Code::kDeviceLost:
-          throw device_error(status.message());
-        default:
-          throw Error(ExitCode::kFailure, status.message());
-      }
+      throw_for_status(status);
     }
 
     // The recording holds one calibration: the first frame may set it, later ones must match.
@@ -144,7 +120,7 @@ RecordStats record_source(Source& source, const std::string& dir,
     }
     if (std::fprintf(list.get(), "%.6f %s\n", frame.timestamp_s, name) < 0 ||
         std::fflush(list.get()) != 0)
-      write_failed(list_path);
+      throw_write_failed(list_path);
     if (frame.T_world_camera_gt) {
       if (!ground_truth)
         ground_truth = std::make_unique<TrajectoryWriter>(
