@@ -11,16 +11,13 @@
 
 #include <png.h>
 
+#include "io/png_write.h"
+
 namespace aoscan {
 namespace {
 
 /// Largest accepted image side; larger headers are treated as corrupt rather than allocated.
 constexpr png_uint_32 kMaxSide = 1 << 15;
-
-/// Encoder settings: fast zlib level, and the "up" filter, which suits smooth depth and is the
-/// cheapest filter to undo when the recording is read back.
-constexpr int kCompressionLevel = 2;
-constexpr int kFilters = PNG_FILTER_UP;
 
 bool host_is_little_endian() {
   const std::uint16_t one = 1;
@@ -153,47 +150,6 @@ int read_file(const std::string& path, std::vector<unsigned char>& bytes) {
   return error;
 }
 
-/// Encoder state for the write callbacks' error path.
-struct EncodeState {
-  char message[200] = {};
-};
-
-void on_encode_error(png_structp png, png_const_charp message) {
-  auto* state = static_cast<EncodeState*>(png_get_error_ptr(png));
-  std::snprintf(state->message, sizeof state->message, "%s", message);
-  png_longjmp(png, 1);
-}
-
-/// The setjmp-protected encode into an open file; false with state.message on failure.
-bool encode(EncodeState& state, std::FILE* file, const Image<std::uint16_t>& depth) {
-  png_structp png =
-      png_create_write_struct(PNG_LIBPNG_VER_STRING, &state, on_encode_error, on_warning);
-  if (!png) return false;
-  png_infop info = png_create_info_struct(png);
-  if (!info) {
-    png_destroy_write_struct(&png, nullptr);
-    return false;
-  }
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    return false;
-  }
-  png_init_io(png, file);
-  png_set_compression_level(png, kCompressionLevel);
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, kFilters);
-  png_set_IHDR(png, info, static_cast<png_uint_32>(depth.width()),
-               static_cast<png_uint_32>(depth.height()), 16, PNG_COLOR_TYPE_GRAY,
-               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
-  png_write_info(png, info);
-  if (host_is_little_endian()) png_set_swap(png);
-  // libpng copies each row before its transformations, so the input is never modified.
-  for (int y = 0; y < depth.height(); ++y)
-    png_write_row(png, reinterpret_cast<png_const_bytep>(depth.row(y)));
-  png_write_end(png, info);
-  png_destroy_write_struct(&png, &info);
-  return true;
-}
-
 }  // namespace
 
 Status read_depth_png(const std::string& path, Image<std::uint16_t>& out,
@@ -236,20 +192,8 @@ Status read_depth_png(const std::string& path, Image<std::uint16_t>& out,
 }
 
 void write_depth_png(const std::string& path, const Image<std::uint16_t>& depth) {
-  if (depth.empty()) throw usage_error(path + ": refusing to write an empty depth image");
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno));
-  EncodeState state;
-  const bool encoded = encode(state, file, depth);
-  const bool stream_failed = std::ferror(file) != 0;
-  const int saved_errno = errno;
-  const bool closed = std::fclose(file) == 0;
-  if (!encoded || stream_failed || !closed) {
-    const std::string why = !encoded && state.message[0]
-                                ? state.message
-                                : std::strerror(saved_errno ? saved_errno : EIO);
-    throw Error(ExitCode::kFailure, path + ": cannot write depth PNG: " + why);
-  }
+  write_png(path, depth.width(), depth.height(), PngFormat::kGrey16,
+            [&depth](int y) -> const void* { return depth.row(y); });
 }
 
 }  // namespace aoscan

@@ -6,17 +6,16 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <csetjmp>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <vector>
 
-#include <png.h>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
 #include "core/status.h"
+#include "io/png_write.h"
 
 namespace aoscan {
 namespace {
@@ -240,65 +239,10 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
   }
 }
 
-namespace {
-
-struct PngWriteState {
-  char message[200] = {};
-};
-
-void on_png_error(png_structp png, png_const_charp message) {
-  auto* state = static_cast<PngWriteState*>(png_get_error_ptr(png));
-  std::snprintf(state->message, sizeof state->message, "%s", message);
-  png_longjmp(png, 1);
-}
-
-void on_png_warning(png_structp, png_const_charp) {}
-
-/// The setjmp-protected encode; only plain locals live here.
-bool encode_rgb(PngWriteState& state, std::FILE* file, const Image<Rgb8>& image) {
-  static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are written as packed RGB");
-  png_structp png =
-      png_create_write_struct(PNG_LIBPNG_VER_STRING, &state, on_png_error, on_png_warning);
-  if (!png) return false;
-  png_infop info = png_create_info_struct(png);
-  if (!info) {
-    png_destroy_write_struct(&png, nullptr);
-    return false;
-  }
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    return false;
-  }
-  png_init_io(png, file);
-  png_set_compression_level(png, 3);
-  png_set_IHDR(png, info, static_cast<png_uint_32>(image.width()),
-               static_cast<png_uint_32>(image.height()), 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
-  png_write_info(png, info);
-  for (int y = 0; y < image.height(); ++y)
-    png_write_row(png, reinterpret_cast<png_const_bytep>(image.row(y)));
-  png_write_end(png, info);
-  png_destroy_write_struct(&png, &info);
-  return true;
-}
-
-}  // namespace
-
 void write_rgb_png(const std::string& path, const Image<Rgb8>& image) {
-  if (image.empty()) throw usage_error(path + ": refusing to write an empty image");
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno));
-  PngWriteState state;
-  const bool encoded = encode_rgb(state, file, image);
-  const bool stream_failed = std::ferror(file) != 0;
-  const int saved_errno = errno;
-  const bool closed = std::fclose(file) == 0;
-  if (!encoded || stream_failed || !closed) {
-    const std::string why = !encoded && state.message[0]
-                                ? state.message
-                                : std::strerror(saved_errno ? saved_errno : EIO);
-    throw Error(ExitCode::kFailure, path + ": cannot write PNG: " + why);
-  }
+  static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are written as packed RGB");
+  write_png(path, image.width(), image.height(), PngFormat::kRgb8,
+            [&image](int y) -> const void* { return image.row(y); });
 }
 
 }  // namespace aoscan
