@@ -310,3 +310,26 @@ TEST(Readme, DocumentsEveryConfigurationKey) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Cli, ReplayIsDeterministicForTheSameThreads) {
+  const fs::path dir = temp_dir("determinism");
+  const std::string source = quote(std::string(AOSCAN_SOURCE_DIR) + "/recordings/corner");
+  for (const char* run : {"a", "b"}) {
+    const CliResult r = run_cli("replay " + source + " --headless --threads 2 --frames 60 --out " +
+                                    quote((dir / run).string()),
+                                dir);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  for (const char* file : {"trajectory.txt", "mesh.ply"}) {
+    const std::string a = read_text(dir / "a" / file);
+    EXPECT_FALSE(a.empty()) << file;
+    EXPECT_EQ(a, read_text(dir / "b" / file)) << file << " differs between two identical replays";
+  }
+  const nlohmann::json stats = read_stats(dir / "a");
+  EXPECT_EQ(stats["frames_tracking_lost"], 0);
+  EXPECT_GT(stats["mesh"]["faces"].get<int>(), 1000);
+}
+
+}  // namespace
