@@ -108,17 +108,20 @@ void capture_loop(Source& source, std::size_t stage_count, const PipelineOptions
                                                        std::chrono::duration<double>(offset_s)));
     }
     frame->frames_dropped_before = out.dropped();
+    frame->queued_at = Clock::now();
     if (!out.push(std::move(frame))) break;
   }
   out.close();
 }
 
 void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQueue* out,
-                StageStats& stats, ChainState& state, const PipelineOptions& options,
-                const std::optional<std::size_t>& expected) {
+                StageStats& stats, StageStats* latency, ChainState& state,
+                const PipelineOptions& options, const std::optional<std::size_t>& expected) {
   while (std::optional<FramePtr> item = in.pop()) {
     FrameWork& frame = **item;
     const auto t0 = Clock::now();
+    if (latency)
+      latency->add_ms(std::chrono::duration<double, std::milli>(t0 - frame.queued_at).count());
     const Status status = run_guarded(stage, frame);
     const double ms = ms_since(t0);
     stats.add_ms(ms);
@@ -189,8 +192,9 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
     for (std::size_t i = 0; i < stages.size(); ++i) {
       FrameQueue* out = i + 1 < stages.size() ? queues[i + 1].get() : nullptr;
       threads.emplace_back(stage_loop, std::cref(stages[i]), i + 1, std::ref(*queues[i]), out,
-                           std::ref(result.stages[i + 1]), std::ref(state), std::cref(options),
-                           std::cref(expected));
+                           std::ref(result.stages[i + 1]),
+                           i == 0 ? &result.capture_latency : nullptr, std::ref(state),
+                           std::cref(options), std::cref(expected));
     }
     if (stages.empty()) {
       state.fail(Status::internal("pipeline has no stages"));

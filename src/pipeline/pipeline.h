@@ -7,6 +7,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <functional>
 #include <memory>
@@ -41,6 +42,7 @@ struct FrameWork {
   /// Milliseconds this frame spent in each step: [0] = capture (read), [i] = the i-th StageDef,
   /// filled as it passes (for the HUD; StageStats keep the run's statistics).
   std::vector<double> stage_ms;
+  std::chrono::steady_clock::time_point queued_at;  ///< when capture handed the frame on
   std::size_t frames_dropped_before = 0;  ///< capture-edge drops counted when this frame was queued
   bool integration_paused = false;  ///< the track stage tracked this frame without integrating it
   bool model_reset = false;         ///< the track stage started a new model with this frame
@@ -89,6 +91,9 @@ struct PipelineResult {
   PipelineCounters counters;
   double wall_s = 0.0;             ///< first frame read to last frame through the chain
   std::vector<StageStats> stages;  ///< "capture" first, then each StageDef in order
+  /// Capture-to-pipeline latency: from the capture thread handing a frame on to the first stage
+  /// taking it (includes any wait in the queue).
+  StageStats capture_latency{"capture_latency"};
 };
 
 /// Runs `source` through `stages` until the source ends, `max_frames` are read, `stop_requested`
