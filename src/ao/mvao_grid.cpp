@@ -31,6 +31,16 @@ std::optional<std::int32_t> to_cell(double v) {
   return static_cast<std::int32_t>(f);
 }
 
+/// to_cell() without a libm call, for the per-pixel loop: the same result for every double (the
+/// range test runs on the truncation first, so only values that fit in int64 are converted).
+inline bool to_cell_fast(double v, std::int32_t& cell) {
+  if (!(v >= static_cast<double>(kMortonMin) && v < static_cast<double>(kMortonMax) + 1.0))
+    return false;
+  const std::int32_t t = static_cast<std::int32_t>(v);
+  cell = t - (v < static_cast<double>(t) ? 1 : 0);
+  return true;
+}
+
 }  // namespace
 
 MvaoGrid::MvaoGrid(const AoConfig& config)
@@ -96,44 +106,68 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
   const Eigen::Matrix3d R = T_world_camera.rotation();
   const Eigen::Vector3d t = T_world_camera.translation();
   const double inv_cell = 1.0 / cell_size_m_;
-  std::uint64_t last_code = kEmpty;
-  MvaoCell* last_cell = nullptr;
   const float* ao_data = ao.data();
   const float* w_data = weights.data();
   const Eigen::Vector3f* verts = maps.vertices.data();
-  for (std::size_t i = 0, n = ao.size(); i < n; ++i) {
-    const float wi = w_data[i];
-    if (wi == 0.0f) continue;
-    const float ai = ao_data[i];
-    const Eigen::Vector3f& v = verts[i];
-    if (!(wi > 0.0f) || !std::isfinite(wi) || !std::isfinite(ai) || !v.allFinite()) {
-      ++points_invalid_;
-      continue;
+  // Pixels go in batches: the first pass turns a batch's accepted pixels into cell codes and
+  // prefetches their table slots, the second accumulates them in pixel order (so the result is
+  // the same as one pixel at a time), one table lookup per run of pixels in the same cell.
+  constexpr std::size_t kBatch = 64;
+  std::uint64_t codes[kBatch];
+  float batch_ao[kBatch];
+  float batch_w[kBatch];
+  std::uint64_t last_code = kEmpty;
+  MvaoCell* last_cell = nullptr;
+  const std::size_t n = ao.size();
+  for (std::size_t begin = 0; begin < n;) {
+    std::size_t count = 0;
+    std::size_t i = begin;
+    const std::size_t mask = keys_.size() - 1;
+    for (; i < n && count < kBatch; ++i) {
+      const float wi = w_data[i];
+      if (wi == 0.0f) continue;
+      const float ai = ao_data[i];
+      const Eigen::Vector3f& v = verts[i];
+      if (!(wi > 0.0f) || !std::isfinite(wi) || !std::isfinite(ai) || !v.allFinite()) {
+        ++points_invalid_;
+        continue;
+      }
+      const Eigen::Vector3d p = (R * v.cast<double>() + t) * inv_cell;
+      if (!p.allFinite()) {
+        ++points_invalid_;
+        continue;
+      }
+      std::int32_t cx, cy, cz;
+      if (!to_cell_fast(p.x(), cx) || !to_cell_fast(p.y(), cy) || !to_cell_fast(p.z(), cz)) {
+        ++points_out_of_range_;
+        continue;
+      }
+      const std::uint64_t code = *morton_encode(cx, cy, cz);
+      if (count == 0 || code != codes[count - 1]) {
+        const std::size_t slot = mix(code) & mask;
+        __builtin_prefetch(&keys_[slot]);
+        __builtin_prefetch(&cells_[slot], 1);
+      }
+      codes[count] = code;
+      batch_ao[count] = std::min(std::max(ai, 0.0f), 1.0f);
+      batch_w[count] = mode_ == AoIntegration::kMvao ? wi : 1.0f;
+      ++count;
     }
-    const Eigen::Vector3d p = (R * v.cast<double>() + t) * inv_cell;
-    if (!p.allFinite()) {
-      ++points_invalid_;
-      continue;
+    begin = i;
+    for (std::size_t k = 0; k < count; ++k) {
+      if (codes[k] != last_code) {
+        last_cell = &insert(codes[k]);  // pointers stay valid until the next insert
+        last_code = codes[k];
+      }
+      MvaoCell& cell = *last_cell;
+      if (cell.last_frame != stamp) {
+        if (mode_ == AoIntegration::kLast) cell.ao_weight_sum = cell.weight_sum = 0.0f;
+        cell.last_frame = stamp;
+      }
+      cell.ao_weight_sum += batch_w[k] * batch_ao[k];
+      cell.weight_sum += batch_w[k];
     }
-    const auto cx = to_cell(p.x()), cy = to_cell(p.y()), cz = to_cell(p.z());
-    if (!cx || !cy || !cz) {
-      ++points_out_of_range_;
-      continue;
-    }
-    const std::uint64_t code = *morton_encode(*cx, *cy, *cz);
-    if (code != last_code) {
-      last_cell = &insert(code);  // pointers stay valid until the next insert
-      last_code = code;
-    }
-    MvaoCell& cell = *last_cell;
-    if (cell.last_frame != stamp) {
-      if (mode_ == AoIntegration::kLast) cell.ao_weight_sum = cell.weight_sum = 0.0f;
-      cell.last_frame = stamp;
-    }
-    const float weight = mode_ == AoIntegration::kMvao ? wi : 1.0f;
-    cell.ao_weight_sum += weight * std::min(std::max(ai, 0.0f), 1.0f);
-    cell.weight_sum += weight;
-    ++points_integrated_;
+    points_integrated_ += count;
   }
   return Status::ok();
 }

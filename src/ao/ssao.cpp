@@ -45,6 +45,14 @@ int offset_px(int centre, float offset, float radius_px) {
   return centre + static_cast<int>(std::floor(offset * radius_px + 0.5f));
 }
 
+/// offset_px() without a libm call: floor by truncation and a correction, exactly std::floor for
+/// the arguments that occur (|offset| <= 1, radius <= kMaxRadiusPx), so both give the same pixel.
+inline int offset_px_fast(int centre, float offset, float radius_px) {
+  const float v = offset * radius_px + 0.5f;
+  const int t = static_cast<int>(v);
+  return centre + t - (v < static_cast<float>(t) ? 1 : 0);
+}
+
 /// Order in which the pixels of a 2x2 block are tried at stride 2 (rotating with the frame).
 constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
 
@@ -73,8 +81,8 @@ float fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
   float sum = 0.0f;
   int counted = 0;
   for (int k = 0; k < count; ++k) {
-    const int sx = offset_px(x, offs[k].x(), rx);
-    const int sy = offset_px(y, offs[k].y(), ry);
+    const int sx = offset_px_fast(x, offs[k].x(), rx);
+    const int sy = offset_px_fast(y, offs[k].y(), ry);
     if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
     const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
     if (!(q.z() > 0.0f) || !q.allFinite()) continue;
@@ -134,8 +142,8 @@ float fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
     for (int side = 0; side < 2; ++side) {
       const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
       for (int k = 0; k < pat.steps; ++k) {
-        const int sx = offset_px(x, so[k].x(), rx);
-        const int sy = offset_px(y, so[k].y(), ry);
+        const int sx = offset_px_fast(x, so[k].x(), rx);
+        const int sy = offset_px_fast(y, so[k].y(), ry);
         if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
         const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
         if (!(q.z() > 0.0f) || !q.allFinite()) continue;

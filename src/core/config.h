@@ -137,7 +137,10 @@ enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon };
 struct AoConfig {
   double radius_m = 0.1;      ///< r_s: radius of the sampling sphere (m)
   double t_max_m = 0.2;       ///< t_max: falloff distance of rho (m)
-  int samples = 32;           ///< N: samples per pixel
+  /// N: samples per pixel. 16 (not the paper's 32): with stride 2 and MVAO the accumulated AO
+  /// correlates equally with the ray-traced reference (corner, Pearson r 0.920 vs 0.921; 8 gives
+  /// 0.921, but a single frame's r drops 0.911 -> 0.908 -> 0.905), at half the SSAO cost.
+  int samples = 16;
   double d_min_m = 0.4;       ///< w_d: minimum normalisation depth (m)
   double d_max_m = 3.0;       ///< w_d: maximum normalisation depth (m)
   int grid_resolution = 512;  ///< MVAO grid cells per axis over grid_extent_m

@@ -1,5 +1,6 @@
 /// @file pyramid.cpp
-/// @brief The tracking pyramid: 2x2 depth downsampling, vertex maps and normal maps per level.
+/// @brief The tracking pyramid: 2x2 depth downsampling, vertex maps and normal maps per level
+/// (TBB over rows; every pixel is computed on its own, so any thread count gives the same bits).
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -19,35 +20,37 @@ void downsample_depth(const Image<float>& depth_m, float max_depth_diff_m, Image
   out.resize(w, h);
   // The reference depth always counts itself, so the average below never divides by zero.
   max_depth_diff_m = std::max(max_depth_diff_m, 0.0f);
-  for (int y = 0; y < h; ++y) {
-    const float* r0 = depth_m.row(2 * y);
-    const float* r1 = depth_m.row(2 * y + 1);
-    float* o = out.row(y);
-    for (int x = 0; x < w; ++x) {
-      const float block[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
-      float ref = 0.0f;
-      for (float v : block) {
-        if (v > 0.0f) {
-          ref = v;
-          break;
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      const float* r0 = depth_m.row(2 * y);
+      const float* r1 = depth_m.row(2 * y + 1);
+      float* o = out.row(y);
+      for (int x = 0; x < w; ++x) {
+        const float block[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
+        float ref = 0.0f;
+        for (float v : block) {
+          if (v > 0.0f) {
+            ref = v;
+            break;
+          }
         }
-      }
-      if (ref == 0.0f) {
-        o[x] = 0.0f;
-        continue;
-      }
-      // Mean as an offset from the reference depth, so a constant block stays exactly constant.
-      float offset_sum = 0.0f;
-      int count = 0;
-      for (float v : block) {
-        if (v > 0.0f && std::fabs(v - ref) <= max_depth_diff_m) {
-          offset_sum += v - ref;
-          ++count;
+        if (ref == 0.0f) {
+          o[x] = 0.0f;
+          continue;
         }
+        // Mean as an offset from the reference depth, so a constant block stays exactly constant.
+        float offset_sum = 0.0f;
+        int count = 0;
+        for (float v : block) {
+          if (v > 0.0f && std::fabs(v - ref) <= max_depth_diff_m) {
+            offset_sum += v - ref;
+            ++count;
+          }
+        }
+        o[x] = ref + offset_sum / static_cast<float>(count);
       }
-      o[x] = ref + offset_sum / static_cast<float>(count);
     }
-  }
+  });
 }
 
 void compute_vertex_map(const Image<float>& depth_m, const Intrinsics& intrinsics,
@@ -61,17 +64,19 @@ void compute_vertex_map(const Image<float>& depth_m, const Intrinsics& intrinsic
   for (int x = 0; x < w; ++x)
     column_factor[x] = static_cast<float>(
         (static_cast<double>(static_cast<float>(x)) - intrinsics.cx) / intrinsics.fx);
-  for (int y = 0; y < h; ++y) {
-    const float row_factor = static_cast<float>(
-        (static_cast<double>(static_cast<float>(y)) - intrinsics.cy) / intrinsics.fy);
-    const float* d = depth_m.row(y);
-    Eigen::Vector3f* v = vertices.row(y);
-    for (int x = 0; x < w; ++x) {
-      const float z = d[x];
-      v[x] = z > 0.0f ? Eigen::Vector3f(column_factor[x] * z, row_factor * z, z)
-                      : Eigen::Vector3f::Zero();
+  const float* cf = column_factor.data();
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      const float row_factor = static_cast<float>(
+          (static_cast<double>(static_cast<float>(y)) - intrinsics.cy) / intrinsics.fy);
+      const float* d = depth_m.row(y);
+      Eigen::Vector3f* v = vertices.row(y);
+      for (int x = 0; x < w; ++x) {
+        const float z = d[x];
+        v[x] = z > 0.0f ? Eigen::Vector3f(cf[x] * z, row_factor * z, z) : Eigen::Vector3f::Zero();
+      }
     }
-  }
+  });
 }
 
 void compute_normal_map(const Image<Eigen::Vector3f>& vertices, float max_depth_jump_m,

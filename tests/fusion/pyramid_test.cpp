@@ -2,8 +2,10 @@
 /// @brief Tests for src/fusion/pyramid.cpp on analytic scenes: vertex and normal maps of planes and
 /// a sphere, 2x2 downsampling, pyramid levels and intrinsics.
 #include <cmath>
+#include <cstring>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "core/status.h"
 #include "fusion/prep_test_util.h"
@@ -192,6 +194,28 @@ TEST(Pyramid, LevelsIntrinsicsAndMapsAreConsistent) {
             std::max(worst, static_cast<double>((pyramid.maps[1].vertices(x, y) - mean).norm()));
       }
     EXPECT_LT(worst, p.n.z() == -1.0 ? 1e-6 : 2e-5) << p.n.transpose();
+  }
+}
+
+TEST(Pyramid, ResultDoesNotDependOnThreadCount) {
+  // Random depth with holes at VGA size: every level's depth, vertex and normal map must be the
+  // same bits with one thread as with all of them (rows run in parallel).
+  const Intrinsics k = test::redkitchen_intrinsics();
+  const Image<float> depth = test::random_depth(k.width, k.height, 21, 0.1);
+  DepthPyramid many, one;
+  build_pyramid(depth, k, many);
+  {
+    tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+    build_pyramid(depth, k, one);
+  }
+  for (int l = 0; l < kPyramidLevels; ++l) {
+    ASSERT_EQ(many.depth_m[l].size(), one.depth_m[l].size());
+    EXPECT_EQ(std::memcmp(many.depth_m[l].data(), one.depth_m[l].data(),
+                          one.depth_m[l].size() * sizeof(float)),
+              0)
+        << l;
+    EXPECT_EQ(many.maps[l].vertices, one.maps[l].vertices) << l;
+    EXPECT_EQ(many.maps[l].normals, one.maps[l].normals) << l;
   }
 }
 
