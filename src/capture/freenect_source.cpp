@@ -166,11 +166,11 @@ class FreenectSource : public Source {
  private:
   static void on_depth(freenect_device* device, void* depth, std::uint32_t timestamp) {
     auto* self = static_cast<FreenectSource*>(freenect_get_user(device));
-    if (self) self->deliver(static_cast<const std::uint16_t*>(depth), timestamp);
+    if (self) self->deliver(depth, timestamp);
   }
 
   /// Runs inside freenect_process_events, on the reading thread.
-  void deliver(const std::uint16_t* depth, std::uint32_t timestamp) {
+  void deliver(const void* depth, std::uint32_t timestamp) {
     if (!target_) return;  // a callback outside read(): nobody asked, nothing to fill
     if (delivered_) ++frames_overwritten_;  // two frames in one call: the newer wins
     Image<std::uint16_t>& out = target_->depth;

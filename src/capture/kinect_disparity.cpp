@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace aoscan {
 namespace {
@@ -47,10 +48,12 @@ const std::array<std::uint16_t, kKinectRawCount>& kinect_raw_to_mm_table() {
   return tables().raw_to_mm;
 }
 
-void kinect_raw_to_mm(const std::uint16_t* raw, std::size_t count, std::uint16_t* mm) {
+void kinect_raw_to_mm(const void* raw, std::size_t count, std::uint16_t* mm) {
   const std::uint16_t* table = tables().raw_to_mm.data();
+  const auto* bytes = static_cast<const unsigned char*>(raw);
   for (std::size_t i = 0; i < count; ++i) {
-    const std::uint16_t r = raw[i];
+    std::uint16_t r;
+    std::memcpy(&r, bytes + 2 * i, sizeof r);  // unaligned-safe; compiles to a plain load
     mm[i] = r < kKinectRawCount ? table[r] : 0;
   }
 }

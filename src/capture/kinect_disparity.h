@@ -26,8 +26,9 @@ double kinect_raw_to_m(std::uint16_t raw);
 const std::array<std::uint16_t, kKinectRawCount>& kinect_raw_to_mm_table();
 
 /// Converts `count` raw pixels to millimetres through the table (fast path of the capture edge);
-/// raw values above 2047 count as invalid.
-void kinect_raw_to_mm(const std::uint16_t* raw, std::size_t count, std::uint16_t* mm);
+/// raw values above 2047 count as invalid. `raw` need not be 2-byte aligned (libfreenect's frame
+/// buffers are not always).
+void kinect_raw_to_mm(const void* raw, std::size_t count, std::uint16_t* mm);
 
 /// The raw disparity whose table depth is nearest to `mm` (ties take the smaller raw), or
 /// kKinectRawInvalid for 0 and for depths outside the table's range (beyond half a step).
