@@ -341,22 +341,6 @@ bool search_near(TsdfSampler& sampler, const Ray& ray, float d, float s_begin, f
   return false;
 }
 
-/// Smallest valid depth among the 8 neighbours of pixel (x, y) of `hint`, or 0 when none.
-float nearest_neighbour_hint(const Image<float>& hint, int x, int y) {
-  float best = std::numeric_limits<float>::infinity();
-  for (int dy = -1; dy <= 1; ++dy) {
-    const int yy = y + dy;
-    if (yy < 0 || yy >= hint.height()) continue;
-    for (int dx = -1; dx <= 1; ++dx) {
-      const int xx = x + dx;
-      if (xx < 0 || xx >= hint.width() || (dx == 0 && dy == 0)) continue;
-      const float d = hint(xx, yy);
-      if (d > 0.0f && d < 1e4f) best = std::min(best, d);
-    }
-  }
-  return std::isfinite(best) ? best : 0.0f;
-}
-
 }  // namespace
 
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
@@ -402,13 +386,7 @@ void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose&
                       result, x, y);
               continue;
             }
-            // No hint here (a hole or a removed border pixel): the nearest hint among the 8
-            // neighbours bounds where the frame saw free space, so the march starts there.
-            const float near =
-                depth_hint_m != nullptr ? nearest_neighbour_hint(*depth_hint_m, x, y) : 0.0f;
-            const float start =
-                near > 0.0f ? std::max(s_begin, near - kHintWindow * trunc) : s_begin;
-            march(sampler, ray, start, s_end, vs, trunc, setup.R_camera_world, result, x, y);
+            march(sampler, ray, s_begin, s_end, vs, trunc, setup.R_camera_world, result, x, y);
           }
         }
       });

@@ -31,9 +31,7 @@ struct RaycastResult {
 /// the frame just integrated. A ray with a hint looks for the zero crossing next to it (a few
 /// trilinear samples stepping by the TSDF value, then a march of +-2 truncations around it) and
 /// nowhere else: the frame saw free space in front of its depth, so this is the first crossing
-/// unless the model disagrees with the frame. A ray without a hint but with a hinted neighbour
-/// (8-neighbourhood) starts its march 2 truncations before the nearest neighbour's hint; other
-/// rays march their whole range. Pass a
+/// unless the model disagrees with the frame. Rays without a hint march their whole range. Pass a
 /// hint only for a frame that was fused at this pose (never after a lost frame).
 /// Throws usage_error on invalid intrinsics, an empty depth range or a hint of the wrong size.
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
