@@ -63,6 +63,9 @@ struct FusionConfig {
   double raycast_min_depth_m = 0.2;  ///< raycast: nearest depth searched along a ray (m)
   double raycast_max_depth_m = 5.0;  ///< raycast: farthest depth searched along a ray (m)
   double mesh_min_weight = 1.0;   ///< mesh: cubes with a corner of lower weight are not meshed
+  /// Resolution of the model raycast (the ICP reference and SSAO input) as a pyramid level of the
+  /// depth frame: 0 = full, 1 = half (a quarter of the rays), 2 = quarter.
+  int raycast_level = 1;
 
   template <class V>
   void visit(V& v) {
@@ -78,6 +81,9 @@ struct FusionConfig {
              0.01, 100.0);
     v.number("mesh_min_weight", mesh_min_weight,
              "mesh: cubes with a corner voxel of lower TSDF weight are dropped", 0.0, 1e6);
+    v.integer("raycast_level", raycast_level,
+              "model raycast resolution as a pyramid level: 0 full, 1 half, 2 quarter", 0,
+              2);
   }
 };
 
@@ -86,6 +92,9 @@ struct TrackingConfig {
   int iterations_level0 = 4;           ///< Gauss-Newton iterations at full resolution
   int iterations_level1 = 5;           ///< ... at half resolution
   int iterations_level2 = 10;          ///< ... at quarter resolution (done first)
+  /// Full resolution associates every n-th pixel of each row, staggered row to row (2 = a
+  /// checkerboard, half the pixels); coarser levels use every pixel.
+  int level0_pixel_step = 2;
   double max_distance_m = 0.1;         ///< correspondences farther apart are rejected (m)
   double max_normal_angle_deg = 30.0;  ///< correspondences whose normals differ more are rejected
   double huber_delta_m = 0.01;         ///< Huber robust weight: residuals above are down-weighted
@@ -103,6 +112,9 @@ struct TrackingConfig {
               100);
     v.integer("iterations_level2", iterations_level2, "ICP iterations at quarter resolution", 0,
               100);
+    v.integer("level0_pixel_step", level0_pixel_step,
+              "ICP at full resolution uses every n-th pixel, staggered by row (checkerboard at 2)",
+              1, 8);
     v.number("max_distance_m", max_distance_m, "ICP correspondence distance rejection (m)", 1e-4,
              10.0);
     v.number("max_normal_angle_deg", max_normal_angle_deg,

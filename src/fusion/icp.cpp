@@ -26,28 +26,32 @@ constexpr double kDegenerateEigenRatio = 1e-6;
 constexpr double kConvergedRotation = 1e-4;
 constexpr double kConvergedTranslation = 5e-5;
 
-/// Partial sums of the normal equations (upper triangle of A row by row, b, residuals).
+/// Partial sums of the normal equations (upper triangle of A row by row, b, residuals) in
+/// scalar type T: float for one image row (a few hundred terms; twice the SIMD width), double
+/// for everything summed from rows.
+template <typename T>
 struct Accumulator {
-  double a[21] = {};
-  double b[6] = {};
-  double residual_sq = 0.0;
+  T a[21] = {};
+  T b[6] = {};
+  T residual_sq = 0;
   int inliers = 0;
   int valid = 0;
 
-  void add(const double j[6], double r, double w) {
+  void add(const T j[6], T r, T w) {
     int k = 0;
     for (int i = 0; i < 6; ++i) {
-      const double wj = w * j[i];
+      const T wj = w * j[i];
       for (int c = i; c < 6; ++c) a[k++] += wj * j[c];
       b[i] += wj * r;
     }
     residual_sq += r * r;
     ++inliers;
   }
-  void add(const Accumulator& o) {
-    for (int i = 0; i < 21; ++i) a[i] += o.a[i];
-    for (int i = 0; i < 6; ++i) b[i] += o.b[i];
-    residual_sq += o.residual_sq;
+  template <typename U>
+  void add(const Accumulator<U>& o) {
+    for (int i = 0; i < 21; ++i) a[i] += static_cast<T>(o.a[i]);
+    for (int i = 0; i < 6; ++i) b[i] += static_cast<T>(o.b[i]);
+    residual_sq += static_cast<T>(o.residual_sq);
     inliers += o.inliers;
     valid += o.valid;
   }
@@ -56,13 +60,13 @@ struct Accumulator {
     int k = 0;
     for (int i = 0; i < 6; ++i) {
       for (int c = i; c < 6; ++c) {
-        s.A(i, c) = a[k];
-        s.A(c, i) = a[k];
+        s.A(i, c) = static_cast<double>(a[k]);
+        s.A(c, i) = static_cast<double>(a[k]);
         ++k;
       }
-      s.b[i] = b[i];
+      s.b[i] = static_cast<double>(b[i]);
     }
-    s.residual_sq = residual_sq;
+    s.residual_sq = static_cast<double>(residual_sq);
     s.inliers = inliers;
     s.valid = valid;
     return s;
@@ -94,8 +98,9 @@ struct Associator {
         huber(static_cast<float>(config.huber_delta_m)),
         model(&model_maps) {}
 
-  /// Adds the correspondence of frame pixel (x, y), if any.
-  void pixel(const PointMaps& frame, int x, int y, Accumulator& acc) const {
+  /// Adds the correspondence of frame pixel (x, y), if any, in T arithmetic.
+  template <typename T>
+  void pixel(const PointMaps& frame, int x, int y, Accumulator<T>& acc) const {
     const Eigen::Vector3f& v = frame.vertices(x, y);
     const Eigen::Vector3f& n = frame.normals(x, y);
     if (!(v.z() > 0.0f) || n.isZero()) return;
@@ -115,10 +120,10 @@ struct Associator {
     if (!((R * n).dot(nm) >= min_normal_cos)) return;
     const float r = nm.dot(diff);
     const Eigen::Vector3f pxn = p.cross(nm);
-    const double j[6] = {pxn.x(), pxn.y(), pxn.z(), nm.x(), nm.y(), nm.z()};
+    const T j[6] = {pxn.x(), pxn.y(), pxn.z(), nm.x(), nm.y(), nm.z()};
     const float abs_r = std::abs(r);
-    const double weight = abs_r <= huber ? 1.0 : huber / abs_r;
-    acc.add(j, r, weight);
+    const T weight = abs_r <= huber ? T(1) : static_cast<T>(huber) / static_cast<T>(abs_r);
+    acc.add(j, static_cast<T>(r), weight);
   }
 };
 
@@ -179,32 +184,40 @@ const char* to_string(TrackingStatus status) {
 }
 
 IcpSystem icp_system(const PointMaps& frame, const PointMaps& model, const Pose& T_model_camera,
-                     const TrackingConfig& config) {
+                     const TrackingConfig& config, int pixel_step) {
   check_sizes(frame, model);
+  const int step = std::max(1, pixel_step);
   const Associator assoc(model, T_model_camera, config);
   const int height = frame.vertices.height();
   const int width = frame.vertices.width();
   const int groups = (height + kRowsPerGroup - 1) / kRowsPerGroup;
-  std::vector<Accumulator> partial(groups);
+  std::vector<Accumulator<double>> partial(groups);
   tbb::parallel_for(0, groups, [&](int g) {
-    Accumulator acc;
+    Accumulator<double> acc;
     const int y_end = std::min(height, (g + 1) * kRowsPerGroup);
-    for (int y = g * kRowsPerGroup; y < y_end; ++y)
-      for (int x = 0; x < width; ++x) assoc.pixel(frame, x, y, acc);
+    for (int y = g * kRowsPerGroup; y < y_end; ++y) {
+      // Float sums over one row (as many terms as the image is wide), merged in double.
+      Accumulator<float> row;
+      for (int x = y % step; x < width; x += step) assoc.pixel(frame, x, y, row);
+      acc.add(row);
+    }
     partial[g] = acc;
   });
-  Accumulator total;
-  for (const Accumulator& acc : partial) total.add(acc);
+  Accumulator<double> total;
+  for (const Accumulator<double>& acc : partial) total.add(acc);
   return total.system();
 }
 
 IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
-                               const Pose& T_model_camera, const TrackingConfig& config) {
+                               const Pose& T_model_camera, const TrackingConfig& config,
+                               int pixel_step) {
   check_sizes(frame, model);
+  const int step = std::max(1, pixel_step);
   const Associator assoc(model, T_model_camera, config);
-  Accumulator total;
+  Accumulator<double> total;
   for (int y = 0; y < frame.vertices.height(); ++y)
-    for (int x = 0; x < frame.vertices.width(); ++x) assoc.pixel(frame, x, y, total);
+    for (int x = 0; x < frame.vertices.width(); ++x)
+      if ((x - y % step) % step == 0) assoc.pixel(frame, x, y, total);
   return total.system();
 }
 
@@ -229,11 +242,18 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
   result.T_world_camera = T_world_camera_init;
   if (!T_world_camera_init.finite() || !model.T_world_camera.finite()) return result;
 
+  // Each level associates into the model at the coarsest resolution that is still at least the
+  // frame level's: the raycast itself while it is not finer, else halved as often as needed.
   const PointMaps* model_maps[kPyramidLevels];
-  model_maps[0] = &model.maps;
-  for (int level = 1; level < kPyramidLevels; ++level) {
-    downsample_model(*model_maps[level - 1], workspace.model[level]);
-    model_maps[level] = &workspace.model[level];
+  const PointMaps* current = &model.maps;
+  for (int level = 0; level < kPyramidLevels; ++level) {
+    const int frame_width = frame.maps[level].vertices.width();
+    if (level > 0 && current->vertices.width() / 2 >= frame_width &&
+        current->vertices.width() >= 2) {
+      downsample_model(*current, workspace.model[level]);
+      current = &workspace.model[level];
+    }
+    model_maps[level] = current;
   }
   const int iterations[kPyramidLevels] = {config.iterations_level0, config.iterations_level1,
                                           config.iterations_level2};
@@ -243,7 +263,8 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
   bool evaluated_level0 = false;
   for (int level = kPyramidLevels - 1; level >= 0; --level) {
     for (int it = 0; it < iterations[level]; ++it) {
-      const IcpSystem s = icp_system(frame.maps[level], *model_maps[level], T_model_camera, config);
+      const IcpSystem s = icp_system(frame.maps[level], *model_maps[level], T_model_camera, config,
+                                     level == 0 ? config.level0_pixel_step : 1);
       if (level == 0) {
         last = s;
         evaluated_level0 = true;
@@ -260,7 +281,8 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
     }
   }
   if (!evaluated_level0) {
-    last = icp_system(frame.maps[0], *model_maps[0], T_model_camera, config);
+    last =
+        icp_system(frame.maps[0], *model_maps[0], T_model_camera, config, config.level0_pixel_step);
     bool degenerate = false;
     solve(last, degenerate);
     result.degenerate = degenerate;

@@ -28,8 +28,8 @@ const char* to_string(TrackingStatus status);
 struct IcpResult {
   Pose T_world_camera;  ///< estimated pose; the initial pose when lost
   TrackingStatus status = TrackingStatus::kLost;
-  int inliers = 0;              ///< correspondences kept at full resolution (last iteration)
-  int valid_pixels = 0;         ///< frame pixels with a vertex and a normal at full resolution
+  int inliers = 0;  ///< correspondences kept at full resolution (last iteration, sampled pixels)
+  int valid_pixels = 0;         ///< sampled full-resolution frame pixels with a vertex and a normal
   double inlier_ratio = 0.0;    ///< inliers / valid_pixels
   double rms_residual_m = 0.0;  ///< point-to-plane RMS of the inliers (m)
   int iterations = 0;           ///< Gauss-Newton steps over all levels
@@ -52,14 +52,17 @@ struct IcpSystem {
 /// is moved by T_model_camera into the camera frame of the model raycast, projected into `model`
 /// (camera frame of the model; nearest pixel) and paired with that model vertex / normal unless
 /// they are farther apart than max_distance_m or their normals differ by more than
-/// max_normal_angle_deg. Residual r = n_model . (p - q), Huber-weighted. Multi-threaded over fixed
-/// groups of rows summed in a fixed order: the result does not depend on the thread count.
+/// max_normal_angle_deg. Residual r = n_model . (p - q), Huber-weighted. Each image row is summed
+/// in float and the rows in double; multi-threaded over fixed groups of rows summed in a fixed
+/// order: the result does not depend on the thread count. `pixel_step` n > 1 uses only the frame
+/// pixels with x = y mod n, mod n (n = 2: a checkerboard); valid and inliers count those.
 IcpSystem icp_system(const PointMaps& frame, const PointMaps& model, const Pose& T_model_camera,
-                     const TrackingConfig& config);
-/// Plain single-threaded reference of icp_system(): one running sum over all pixels (equal up to
-/// floating-point summation order).
+                     const TrackingConfig& config, int pixel_step = 1);
+/// Plain single-threaded reference of icp_system(): one running double sum over all pixels
+/// (equal up to the float rounding of the per-row sums, about 1e-6 relative).
 IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
-                               const Pose& T_model_camera, const TrackingConfig& config);
+                               const Pose& T_model_camera, const TrackingConfig& config,
+                               int pixel_step = 1);
 
 /// Reusable buffers of icp(): the model maps at every pyramid level (level 0 is not used).
 struct IcpWorkspace {
@@ -72,7 +75,11 @@ void downsample_model(const PointMaps& in, PointMaps& out);
 
 /// Tracks `frame` (its pyramid; camera frame of the frame) against `model` (a raycast of the
 /// fused model at model.T_world_camera), starting from T_world_camera_init (usually the previous
-/// pose), coarse to fine with the configured iterations per level. The result's status is lost
+/// pose), coarse to fine with the configured iterations per level (full resolution with
+/// pixel_step = config.level0_pixel_step). The model may have any
+/// resolution (its maps carry their intrinsics): each frame level associates projectively into
+/// the model halved down to the coarsest resolution not below the level's (a half-resolution
+/// raycast serves levels 0 and 1 as it is). The result's status is lost
 /// when too few pixels match, the estimate is not finite, or it moved more than
 /// max_translation_m / max_rotation_deg from the initial pose; poor when the inlier ratio or the
 /// residual is bad or the system is degenerate. Never returns a non-finite pose.

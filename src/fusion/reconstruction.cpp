@@ -2,15 +2,23 @@
 /// @brief Track, integrate, raycast.
 #include "fusion/reconstruction.h"
 
+#include <algorithm>
+
 #include "fusion/marching_cubes.h"
 
 namespace aoscan {
+namespace {
+
+/// The model raycast is never coarser than this (pixels across): SSAO and tracking of small
+/// frames (e.g. 320x240 recordings) keep their full resolution.
+constexpr int kMinRaycastWidth = 320;
+
+}  // namespace
 
 Reconstruction::Reconstruction(const Config& config) : config_(config), volume_(config.fusion) {}
 
 FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
-                                   std::shared_ptr<RaycastResult> raycast_out,
-                                   bool integrate) {
+                                   std::shared_ptr<RaycastResult> raycast_out, bool integrate) {
   FusionStep step;
   if (!model_) {
     step.new_model = true;
@@ -19,8 +27,8 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
   } else {
     step.icp = icp(frame.pyramid, *model_, T_world_last_, config_.tracking, icp_workspace_);
     step.status = step.icp.status;
-    step.T_world_camera = step.icp.status == TrackingStatus::kLost ? T_world_last_
-                                                                    : step.icp.T_world_camera;
+    step.T_world_camera =
+        step.icp.status == TrackingStatus::kLost ? T_world_last_ : step.icp.T_world_camera;
   }
   if (step.status == TrackingStatus::kLost) {
     ++frames_lost_;
@@ -31,7 +39,16 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.integrated = true;
   }
   T_world_last_ = step.T_world_camera;
-  raycast(volume_, intrinsics, step.T_world_camera, config_.fusion, *raycast_out);
+  // The model is raycast at a pyramid level of the frame; a frame just fused at this pose is the
+  // depth hint (its pyramid depth at that level has exactly the raycast's pixel grid).
+  int level = std::clamp(config_.fusion.raycast_level, 0, kPyramidLevels - 1);
+  while (level > 0 && intrinsics.scaled(level).width < kMinRaycastWidth) --level;
+  const Intrinsics model_intrinsics = intrinsics.scaled(level);
+  const Image<float>& hint = frame.pyramid.depth_m[level];
+  const bool use_hint = step.integrated && hint.width() == model_intrinsics.width &&
+                        hint.height() == model_intrinsics.height;
+  raycast(volume_, model_intrinsics, step.T_world_camera, config_.fusion, *raycast_out,
+          use_hint ? &hint : nullptr);
   model_ = std::move(raycast_out);
   return step;
 }

@@ -19,10 +19,10 @@ namespace aoscan {
 /// What happened to one frame.
 struct FusionStep {
   TrackingStatus status = TrackingStatus::kLost;
-  Pose T_world_camera;     ///< the tracked pose (the last good pose when lost)
-  bool integrated = false; ///< the frame was fused into the TSDF
-  bool new_model = false;  ///< the first frame of a model (after start or reset): not tracked
-  IcpResult icp;           ///< tracking details (empty for the first frame of a model)
+  Pose T_world_camera;      ///< the tracked pose (the last good pose when lost)
+  bool integrated = false;  ///< the frame was fused into the TSDF
+  bool new_model = false;   ///< the first frame of a model (after start or reset): not tracked
+  IcpResult icp;            ///< tracking details (empty for the first frame of a model)
   IntegrateStats integrate;
 };
 
@@ -37,7 +37,10 @@ class Reconstruction {
   /// next tracking reference (keep it unchanged afterwards: it is shared from then on). When lost,
   /// `raycast_out` is left untouched and the reference stays the last good one, so tracking keeps
   /// trying from there and recovers when the camera comes back.
-  /// With `integrate` false (paused) the frame is tracked and raycast but not fused.
+  /// With `integrate` false (paused) the frame is tracked and raycast but not fused. The raycast
+  /// has the resolution of pyramid level fusion.raycast_level of `intrinsics`, but at least 320
+  /// pixels across (its maps carry their intrinsics), and uses the fused frame's depth at that
+  /// level as its depth hint.
   FusionStep process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
                      std::shared_ptr<RaycastResult> raycast_out, bool integrate = true);
 

@@ -107,8 +107,10 @@ class TsdfVolume {
   /// Throws usage_error when the depth size differs from the intrinsics.
   IntegrateStats integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
                            const Pose& T_world_camera);
-  /// Plain single-threaded reference of integrate(): the same per-voxel arithmetic in one loop;
-  /// gives a bit-identical volume.
+  /// Plain single-threaded reference of integrate(): the same allocation and blocks, each voxel
+  /// projected by a full matrix product and two divisions. Agrees with integrate() up to the float
+  /// rounding of the projection: a voxel projecting within rounding of a pixel border may read
+  /// the neighbouring pixel (a few voxels in a million).
   IntegrateStats integrate_reference(const Image<float>& depth_m, const Intrinsics& intrinsics,
                                      const Pose& T_world_camera);
 
@@ -161,7 +163,13 @@ class TsdfVolume {
   /// Allocation pass shared by integrate() and integrate_reference(): fills visible_.
   IntegrateStats allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
                                const Pose& T_world_camera, bool parallel);
-  /// Updates the voxels of one block from the frame.
+  /// update_block() with the voxel positions stepped affinely and one reciprocal per voxel:
+  /// the same update up to float rounding of the projection (a voxel whose projection lies
+  /// within rounding of a pixel border may read the neighbouring pixel).
+  void update_block_fast(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
+                         const Eigen::Matrix3f& R_camera_world,
+                         const Eigen::Vector3f& t_camera_world);
+  /// Updates the voxels of one block from the frame (the plain reference arithmetic).
   void update_block(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
                     const Eigen::Matrix3f& R_camera_world, const Eigen::Vector3f& t_camera_world);
 

@@ -3,6 +3,7 @@
 #include "fusion/tsdf_volume.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -123,7 +124,7 @@ TEST(TsdfVolume, WeightsAreCappedAndAveragesStay) {
   EXPECT_EQ(max_weight, 3.0f);
 }
 
-TEST(TsdfVolume, ParallelIntegrationMatchesReferenceExactly) {
+TEST(TsdfVolume, FastParallelIntegrationMatchesReference) {
   const test::Scene scene = test::corner_scene();
   const Pose poses[] = {test::look_at({0.4, -0.2, 0.2}, {-0.3, 0.6, 2.6}),
                         test::look_at({0.0, -0.3, 0.4}, {-0.2, 0.5, 2.5}),
@@ -138,12 +139,26 @@ TEST(TsdfVolume, ParallelIntegrationMatchesReferenceExactly) {
     EXPECT_EQ(a.blocks_allocated, b.blocks_allocated);
     EXPECT_EQ(a.blocks_updated, b.blocks_updated);
   }
+  // The fast update steps voxel positions affinely: its voxel depths differ from the reference's
+  // by float rounding (about 1e-6 m, i.e. a few 1e-5 of the truncation in tsdf), and a voxel
+  // projecting within rounding of a pixel border may read the neighbouring pixel. So: weights
+  // equal and tsdf within 2e-4 everywhere except at most 1e-4 of the voxels (59 in 2.25M here).
   ASSERT_EQ(fast.block_count(), reference.block_count());
+  long long voxels = 0, different = 0, not_exact = 0;
   for (int i = 0; i < fast.block_count(); ++i) {
     ASSERT_EQ(fast.block_coord(i), reference.block_coord(i));
-    ASSERT_EQ(0, std::memcmp(&fast.block(i), &reference.block(i), sizeof(VoxelBlock)))
-        << "block " << i;
+    for (int j = 0; j < kBlockVoxels; ++j) {
+      const Voxel& a = fast.block(i).voxels[j];
+      const Voxel& b = reference.block(i).voxels[j];
+      ++voxels;
+      if (a.weight != b.weight || std::abs(a.tsdf - b.tsdf) > 2e-4f) ++different;
+      if (a.weight != b.weight || a.tsdf != b.tsdf) ++not_exact;
+    }
   }
+  std::printf("fast vs reference integration: %lld of %lld voxels beyond 2e-4, %lld not exact\n",
+              different, voxels, not_exact);
+  EXPECT_GT(voxels, 100000);
+  EXPECT_LE(different, voxels / 10000);
 }
 
 TEST(TsdfVolume, SameVolumeForOneAndTwoThreads) {
