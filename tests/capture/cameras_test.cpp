@@ -26,6 +26,11 @@
 namespace fs = std::filesystem;
 
 namespace aoscan {
+
+/// The DummyDevice stream that must outlive its test (see below); external linkage keeps it
+/// reachable for LeakSanitizer.
+Source* g_openni2_stream_kept_alive = nullptr;
+
 namespace {
 
 fs::path temp_dir(const std::string& name) {
@@ -338,9 +343,8 @@ TEST(OpenNI2, DummyDriverStreamsLiveFramesWithDeviceTimestamps) {
   }
   // Debian's DummyDevice test driver does not join its frame thread when a stream is destroyed
   // (the thread then touches freed memory), so this one stream is left running until exit.
-  // Kept reachable from a static so LeakSanitizer does not count the deliberate leak.
-  static Source* kept_alive = nullptr;
-  kept_alive = source.release();
+  // Kept reachable from a global so LeakSanitizer does not count the deliberate leak.
+  g_openni2_stream_kept_alive = source.release();
 }
 
 TEST(OpenNI2, UnknownDeviceAndBadRecordingsAreClearErrors) {
