@@ -30,14 +30,8 @@ std::string fakenect_depth_file_name(double time_s, std::uint32_t ticks) {
 FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
                                       std::optional<std::size_t> max_frames,
                                       const std::atomic<bool>* stop_requested) {
-  std::string root = dir;
-  while (root.size() > 1 && root.back() == '/') root.pop_back();
+  const std::string root = prepare_output_folder(dir, "INDEX.txt", "a fakenect dump");
   const std::string index_path = root + "/INDEX.txt";
-  std::error_code ec;
-  if (fs::exists(index_path, ec))
-    throw usage_error(root + ": already holds a fakenect dump (INDEX.txt); choose another folder");
-  fs::create_directories(root, ec);
-  if (ec) throw Error(ExitCode::kFailure, root + ": cannot create folder: " + ec.message());
 
   OutputFile index = open_output(index_path);
 

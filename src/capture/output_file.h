@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -36,6 +37,21 @@ inline void close_checked(OutputFile& file, const std::string& path) {
   const bool failed = std::ferror(file.get()) != 0;
   const int rc = std::fclose(file.release());
   if (failed || rc != 0) throw_write_failed(path);
+}
+
+/// Readies `dir` for a new recording or dump and returns it without trailing slashes: refuses
+/// (usage_error) a folder that already holds `marker` (e.g. depth.txt), so nothing is overwritten,
+/// and creates `dir/subdir` (or `dir` when subdir is empty) with its parents.
+inline std::string prepare_output_folder(std::string dir, const std::string& marker,
+                                         const std::string& what, const std::string& subdir = "") {
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  std::error_code ec;
+  if (std::filesystem::exists(dir + "/" + marker, ec))
+    throw usage_error(dir + ": already holds " + what + " (" + marker + "); choose another folder");
+  const std::string create = subdir.empty() ? dir : dir + "/" + subdir;
+  std::filesystem::create_directories(create, ec);
+  if (ec) throw Error(ExitCode::kFailure, create + ": cannot create folder: " + ec.message());
+  return dir;
 }
 
 /// Throws the Error matching a stream-ending status (bad input: exit 3, device lost: exit 4).

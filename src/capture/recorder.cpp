@@ -33,14 +33,8 @@ std::string one_line(std::string s) {
 RecordStats record_source(Source& source, const std::string& dir,
                           std::optional<std::size_t> max_frames,
                           const std::atomic<bool>* stop_requested) {
-  std::string root = dir;
-  while (root.size() > 1 && root.back() == '/') root.pop_back();
+  const std::string root = prepare_output_folder(dir, "depth.txt", "a recording", "depth");
   const std::string list_path = root + "/depth.txt";
-  std::error_code ec;
-  if (fs::exists(list_path, ec))
-    throw usage_error(root + ": already holds a recording (depth.txt); choose another folder");
-  fs::create_directories(root + "/depth", ec);
-  if (ec) throw Error(ExitCode::kFailure, root + "/depth: cannot create folder: " + ec.message());
 
   const std::string camera_path = root + "/camera.json";
   Intrinsics calibration = source.intrinsics();
@@ -114,6 +108,7 @@ RecordStats record_source(Source& source, const std::string& dir,
     try {
       write_depth_png(png_path, frame.depth);
     } catch (const Error&) {
+      std::error_code ec;
       fs::remove(png_path, ec);  // a partial PNG is never listed; do not leave it either
       finish();
       throw;
