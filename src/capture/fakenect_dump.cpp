@@ -17,7 +17,6 @@
 namespace aoscan {
 namespace {
 
-namespace fs = std::filesystem;
 
 }  // namespace
 
