@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <memory>
 #include <vector>
 
@@ -15,10 +14,6 @@
 #include "capture/output_file.h"
 
 namespace aoscan {
-namespace {
-
-
-}  // namespace
 
 std::string fakenect_depth_file_name(double time_s, std::uint32_t ticks) {
   char name[96];
