@@ -192,14 +192,14 @@ TEST(Cli, BadFramesAreCountedSkipsOrStrictErrors) {
   write_png(pngs[6], 64, 48, PNG_FORMAT_RGB);            // colour
   write_png(pngs[8], 32, 24, PNG_FORMAT_LINEAR_Y);       // 16-bit but another size
   const fs::path out = dir / "out";
-  const CliResult r = run_cli("replay " + quote(rec.string()) + " --out " + quote(out.string()), dir);
+  const CliResult r = run_cli("replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json stats = read_stats(out);
   EXPECT_EQ(stats["frames_corrupt"], 5);
   EXPECT_EQ(stats["frames_processed"], 5);
 
   const CliResult strict =
-      run_cli("replay " + quote(rec.string()) + " --strict --out " + quote((dir / "o2").string()), dir);
+      run_cli("replay " + quote(rec.string()) + " --headless --strict --out " + quote((dir / "o2").string()), dir);
   EXPECT_EQ(strict.exit_code, 3);
   expect_one_line_error(strict, pngs[1].filename().string());
   EXPECT_NE(strict.err.find("frame 1"), std::string::npos) << strict.err;
@@ -209,7 +209,7 @@ TEST(Cli, NoUsableFrameExitsThree) {
   const fs::path dir = temp_dir("nousable");
   const fs::path rec = make_recording(dir, 3);
   for (const auto& e : fs::directory_iterator(rec / "depth")) fs::resize_file(e.path(), 10);
-  const CliResult r = run_cli("replay " + quote(rec.string()) + " --out " + quote((dir / "o").string()), dir);
+  const CliResult r = run_cli("replay " + quote(rec.string()) + " --headless --out " + quote((dir / "o").string()), dir);
   EXPECT_EQ(r.exit_code, 3);
   expect_one_line_error(r, "no usable frame");
 }
@@ -259,9 +259,12 @@ TEST(Cli, SigintWritesOutputsAndExitsZero) {
   if (pid == 0) {
     freopen("/dev/null", "w", stderr);
     execl(AOSCAN_BINARY, AOSCAN_BINARY, "replay", "synth:corner?frames=100000&width=160&height=120",
-          "--out", out.c_str(), nullptr);
+          "--headless", "--out", out.c_str(), nullptr);
     _exit(127);
   }
+  // Signal once the run is under way (stats of a run that processed frames), at most 30 s on.
+  for (int i = 0; i < 300 && !fs::exists(out); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   kill(pid, SIGINT);
   int status = 0;
