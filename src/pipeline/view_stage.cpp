@@ -15,13 +15,25 @@ using Clock = std::chrono::steady_clock;
 constexpr std::size_t kFpsWindow = 30;  ///< frames over which the HUD's fps is measured
 constexpr double kMsSmoothing = 0.2;    ///< weight of the newest frame in the HUD's stage times
 
-/// `dst` = `src`, or `width` x `height` of `fill` when `src` is empty (buffers reused).
+/// `dst` = `src` at `width` x `height`: copied, or enlarged by pixel replication when `src` is an
+/// integer fraction of that size (the model raycast runs at a pyramid level of the frame), else
+/// `fill` (e.g. no raycast for a lost frame). Buffers reused.
 template <class T>
 void copy_or_fill(const Image<T>& src, int width, int height, const T& fill, Image<T>& dst) {
   if (src.width() == width && src.height() == height) {
     dst = src;
-  } else {
+    return;
+  }
+  const int factor = src.width() > 0 ? width / src.width() : 0;
+  if (factor < 2 || src.width() * factor != width || src.height() * factor != height) {
     dst.resize(width, height, fill);
+    return;
+  }
+  dst.resize(width, height, fill);
+  for (int y = 0; y < height; ++y) {
+    const T* in = src.row(y / factor);
+    T* out = dst.row(y);
+    for (int x = 0; x < width; ++x) out[x] = in[x / factor];
   }
 }
 

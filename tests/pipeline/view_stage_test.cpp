@@ -39,6 +39,21 @@ std::pair<int, int> png_size(const fs::path& path) {
   return {static_cast<int>(image.width), static_cast<int>(image.height)};
 }
 
+/// Fraction of the pixels of a PNG that differ from its top-left pixel (-1 when unreadable).
+double fraction_unlike_corner(const fs::path& path) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) return -1.0;
+  image.format = PNG_FORMAT_RGB;
+  std::vector<unsigned char> rgb(PNG_IMAGE_SIZE(image));
+  if (!png_image_finish_read(&image, nullptr, rgb.data(), 0, nullptr)) return -1.0;
+  std::size_t unlike = 0;
+  const std::size_t pixels = rgb.size() / 3;
+  for (std::size_t i = 1; i < pixels; ++i)
+    unlike += (rgb[3 * i] != rgb[0] || rgb[3 * i + 1] != rgb[1] || rgb[3 * i + 2] != rgb[2]);
+  return static_cast<double>(unlike) / static_cast<double>(pixels);
+}
+
 /// Camera-frame maps of a fronto-parallel wall at `depth_m` (every pixel valid).
 PointMaps wall_maps(int width, int height, float depth_m) {
   PointMaps maps;
@@ -152,6 +167,27 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   }
   for (const char* f : {"mesh.ply", "trajectory.txt", "stats.json"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
+}
+
+TEST(ViewStage, FullResolutionSnapshotsShowTheHalfResolutionModel) {
+  // At 640x480 the model is raycast at 320x240: its views are enlarged, not left empty.
+  const fs::path out = fresh_dir("snap_full_out");
+  const fs::path snaps = fresh_dir("snap_full_png");
+  std::unique_ptr<Source> source = open_source("synth:corner?frames=2");
+  SessionOptions options;
+  options.out_dir = out.string();
+  options.threads = 2;
+  options.snapshot_dir = snaps.string();
+  options.snapshot_every = 1;
+  std::atomic<bool> stop{false};
+  const SessionResult r = run_session(*source, options, stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  // The corner fills the whole view of the first frames.
+  for (const char* view : {"shaded", "ssao", "normals", "depth"}) {
+    const fs::path png = snaps / (std::string(view) + "_000001.png");
+    ASSERT_EQ(png_size(png), std::make_pair(640, 480)) << png;
+    EXPECT_GT(fraction_unlike_corner(png), 0.5) << png;
+  }
 }
 
 TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
