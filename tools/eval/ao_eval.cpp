@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "ao/reference_ao.h"
+#include "core/status.h"
 
 namespace aoscan::eval {
 
@@ -63,6 +65,7 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
     const Eigen::Vector3d on_surface = p - sd * n;
     mesh_ao.push_back(mesh.quality[i]);
     reference.push_back(reference_obscurance(cast, on_surface, n, t_max_m, strata, 1e-5));
+    r.pairs.push_back({on_surface, mesh_ao.back(), reference.back()});
   }
   r.vertices = mesh_ao.size();
   if (r.vertices == 0) return r;
@@ -78,6 +81,17 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
   r.mean_reference = sr / n;
   r.pearson_r = pearson(mesh_ao, reference);
   return r;
+}
+
+void write_ao_pairs_csv(const std::string& path, const AoEvalResult& result) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) throw usage_error(path + ": cannot write the AO comparison");
+  std::fprintf(f, "x,y,z,mesh_ao,reference\n");
+  for (const AoEvalResult::Pair& e : result.pairs)
+    std::fprintf(f, "%.5f,%.5f,%.5f,%.5f,%.5f\n", e.p.x(), e.p.y(), e.p.z(), e.mesh_ao,
+                 e.reference);
+  const bool ok = std::fclose(f) == 0;
+  if (!ok) throw usage_error(path + ": cannot write the AO comparison");
 }
 
 }  // namespace aoscan::eval

@@ -4,6 +4,10 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "capture/synth_scene.h"
 #include "core/mesh.h"
@@ -17,6 +21,12 @@ struct AoEvalResult {
   double pearson_r = 0;            ///< correlation of mesh AO with the reference
   double rmse = 0;                 ///< root-mean-square difference
   double mean_mesh = 0, mean_reference = 0;
+  /// Per compared vertex: its scene point (scene frame, m), the mesh AO and the reference AO.
+  struct Pair {
+    Eigen::Vector3d p;
+    double mesh_ao, reference;
+  };
+  std::vector<Pair> pairs;
 };
 
 /// Pearson r of `mesh.quality` against Eq. 1 obscurance (rho = smoothstep(0, t_max, d), 1 without
@@ -27,6 +37,10 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
                               const Pose& T_scene_mesh, double t_max_m,
                               std::size_t max_vertices = 20000, int strata = 16,
                               double max_offset_m = 0.02);
+
+/// Writes `result.pairs` as CSV with the header `x,y,z,mesh_ao,reference`; a file that cannot be
+/// written is a usage_error naming it.
+void write_ao_pairs_csv(const std::string& path, const AoEvalResult& result);
 
 /// Pearson correlation of two equally long sequences (0 when either is constant).
 double pearson(const std::vector<double>& a, const std::vector<double>& b);

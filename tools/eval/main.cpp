@@ -56,6 +56,9 @@ int run(int argc, char** argv) {
   ao->add_option("--estimate", est_path, "estimated trajectory")->required()->check(CLI::ExistingFile);
   ao->add_option("--t-max", t_max, "obscurance falloff distance t_max (m)")->capture_default_str();
   ao->add_option("--vertices", max_vertices, "vertices compared at most")->capture_default_str();
+  std::string dump_path;
+  ao->add_option("--dump", dump_path,
+                 "write the compared vertices as CSV: x,y,z (scene frame, m),mesh_ao,reference");
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -91,6 +94,7 @@ int run(int argc, char** argv) {
       out["ao_rmse"] = a.rmse;
       out["ao_mean_mesh"] = a.mean_mesh;
       out["ao_mean_reference"] = a.mean_reference;
+      if (!dump_path.empty()) write_ao_pairs_csv(dump_path, a);
       if (!json) {
         std::printf("vertices compared   %zu (%zu farther than 2 cm from the scene skipped)\n",
                     a.vertices, a.off_surface);
