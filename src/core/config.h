@@ -17,6 +17,9 @@ struct PreprocessConfig {
   double min_depth_m = 0.4;           ///< nearer depths are invalid
   double max_depth_m = 4.5;           ///< farther depths are invalid
   double outlier_threshold_m = 0.02;  ///< drop a pixel when any 8-neighbour differs by more
+  /// ... than outlier_threshold_m + outlier_threshold_per_m2 * depth^2 (the depth resolution of
+  /// a triangulating sensor falls with depth^2; 0 gives the paper's fixed threshold).
+  double outlier_threshold_per_m2 = 0.002;
   /// Bilateral filter before tracking. Sigmas are PCL KinFu's (4.5 px, 0.03 m); KinFu's radius is
   /// 6 px (13x13 window), here 3 px (7x7) by default to keep the CPU cost near 20 ms per VGA frame
   /// on one core. A radius of 0 disables the filter.
@@ -36,8 +39,12 @@ struct PreprocessConfig {
     v.number("max_depth_m", max_depth_m, "farthest depth kept (m)", 0.0, 100.0);
     v.number("outlier_threshold_m", outlier_threshold_m,
              "border-outlier removal: a pixel goes when an 8-neighbour differs in depth by more "
-             "than this (m); 0 disables",
+             "than this (m) plus outlier_threshold_per_m2 * depth^2; 0 disables",
              0.0, 10.0);
+    v.number("outlier_threshold_per_m2", outlier_threshold_per_m2,
+             "border-outlier removal: growth of the threshold with the square of the pixel's depth "
+             "(1/m); 0 keeps it fixed as in the paper",
+             0.0, 1.0);
     v.integer("bilateral_radius_px", bilateral_radius_px,
               "bilateral filter half-window (px); 0 disables the filter", 0, 16);
     v.number("bilateral_sigma_space_px", bilateral_sigma_space_px,

@@ -52,8 +52,9 @@ inline int differs(float c, float n, float t) {
 /// missing neighbour onto the pixel itself (or onto a neighbour already compared) never changes
 /// the decision, because |c - c| = 0 is never above a positive threshold.
 inline float filter_pixel(const float* up, const float* mid, const float* dn, int xl, int x, int xr,
-                          float t) {
+                          float t0, float per_m2) {
   const float c = mid[x];
+  const float t = t0 + per_m2 * c * c;
   const int bad = differs(c, up[xl], t) | differs(c, up[x], t) | differs(c, up[xr], t) |
                   differs(c, mid[xl], t) | differs(c, mid[xr], t) | differs(c, dn[xl], t) |
                   differs(c, dn[x], t) | differs(c, dn[xr], t) | !(c > 0.0f);
@@ -61,17 +62,18 @@ inline float filter_pixel(const float* up, const float* mid, const float* dn, in
 }
 
 /// Filters one row. `up` / `dn` are the rows above and below, or `mid` itself at the image border
-/// (see filter_pixel() for why that is exact). Requires t > 0.
-void filter_row(const float* up, const float* mid, const float* dn, int width, float t,
-                float* out) {
+/// (see filter_pixel() for why that is exact). Requires t0 > 0 and per_m2 >= 0.
+void filter_row(const float* up, const float* mid, const float* dn, int width, float t0,
+                float per_m2, float* out) {
   if (width <= 0) return;
   if (width == 1) {
-    out[0] = filter_pixel(up, mid, dn, 0, 0, 0, t);
+    out[0] = filter_pixel(up, mid, dn, 0, 0, 0, t0, per_m2);
     return;
   }
-  out[0] = filter_pixel(up, mid, dn, 0, 0, 1, t);
-  for (int x = 1; x < width - 1; ++x) out[x] = filter_pixel(up, mid, dn, x - 1, x, x + 1, t);
-  out[width - 1] = filter_pixel(up, mid, dn, width - 2, width - 1, width - 1, t);
+  out[0] = filter_pixel(up, mid, dn, 0, 0, 1, t0, per_m2);
+  for (int x = 1; x < width - 1; ++x)
+    out[x] = filter_pixel(up, mid, dn, x - 1, x, x + 1, t0, per_m2);
+  out[width - 1] = filter_pixel(up, mid, dn, width - 2, width - 1, width - 1, t0, per_m2);
 }
 
 /// The filter is disabled by a threshold that is not a positive number.
@@ -91,18 +93,19 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
 }
 
 void remove_border_outliers_reference(const Image<float>& depth_m, float threshold_m,
-                                      Image<float>& out) {
+                                      float threshold_per_m2, Image<float>& out) {
   out = depth_m;
   if (!filter_enabled(threshold_m)) return;
   for (int y = 0; y < depth_m.height(); ++y) {
     for (int x = 0; x < depth_m.width(); ++x) {
       const float c = depth_m(x, y);
+      const float t = threshold_m + threshold_per_m2 * c * c;
       bool remove = !(c > 0.0f);
       for (int dy = -1; dy <= 1 && !remove; ++dy) {
         for (int dx = -1; dx <= 1 && !remove; ++dx) {
           if ((dx == 0 && dy == 0) || !depth_m.contains(x + dx, y + dy)) continue;
           const float n = depth_m(x + dx, y + dy);
-          if (n > 0.0f && std::fabs(c - n) > threshold_m) remove = true;
+          if (n > 0.0f && std::fabs(c - n) > t) remove = true;
         }
       }
       if (remove) out(x, y) = 0.0f;
@@ -110,7 +113,8 @@ void remove_border_outliers_reference(const Image<float>& depth_m, float thresho
   }
 }
 
-void remove_border_outliers(const Image<float>& depth_m, float threshold_m, Image<float>& out) {
+void remove_border_outliers(const Image<float>& depth_m, float threshold_m,
+                            float threshold_per_m2, Image<float>& out) {
   const int w = depth_m.width();
   const int h = depth_m.height();
   if (!filter_enabled(threshold_m)) {
@@ -122,12 +126,13 @@ void remove_border_outliers(const Image<float>& depth_m, float threshold_m, Imag
     const float* mid = depth_m.row(y);
     const float* up = y > 0 ? depth_m.row(y - 1) : mid;
     const float* dn = y + 1 < h ? depth_m.row(y + 1) : mid;
-    filter_row(up, mid, dn, w, threshold_m, out.row(y));
+    filter_row(up, mid, dn, w, threshold_m, threshold_per_m2, out.row(y));
   }
 }
 
 void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, Image<float>& out) {
   const float t = static_cast<float>(config.outlier_threshold_m);
+  const float per_m2 = static_cast<float>(config.outlier_threshold_per_m2);
   if (!filter_enabled(t)) {
     depth_to_metres(frame, config, out);
     return;
@@ -147,7 +152,7 @@ void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, I
     const float* mid = slot(y);
     const float* up = y > 0 ? slot(y - 1) : mid;
     const float* dn = y + 1 < h ? slot(y + 1) : mid;
-    filter_row(up, mid, dn, w, t, out.row(y));
+    filter_row(up, mid, dn, w, t, per_m2, out.row(y));
   }
 }
 

@@ -33,8 +33,13 @@ namespace aoscan {
 void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
                      Image<float>& depth_m);
 
-/// Border-outlier removal of paper 000 Sec. 6: a valid pixel is removed (set to 0) when any of its
-/// 8 neighbours differs from it in depth by more than `threshold_m` (|a - b| > t, strictly).
+/// Border-outlier removal of paper 000 Sec. 6: a valid pixel of depth c is removed (set to 0) when
+/// any of its 8 neighbours differs from it in depth by more than t = threshold_m +
+/// threshold_per_m2 * c^2 (|a - b| > t, strictly). The paper's filter (a Kinect 2, t = 2 cm) is
+/// threshold_per_m2 = 0; the quadratic term follows the depth resolution of triangulating
+/// sensors, whose disparity steps grow with c^2 (Kinect v1: about 2.9 mm * c^2 per step, so at
+/// 3.5 m every pixel differs from some neighbour by more than 2 cm and a fixed 2 cm removes
+/// whole walls).
 /// - Decisions are made on the input: a removed pixel still counts as a neighbour of the others.
 /// - Invalid neighbours (0) do not count: they carry no depth, so a hole next to a pixel is not a
 ///   discontinuity by itself (the paper's filter targets depth jumps between measured surfaces).
@@ -42,13 +47,15 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
 /// - `threshold_m` <= 0 disables the filter (the output is a copy).
 /// This is the fast version (row pointers, branch-free vectorisable inner loop); it equals
 /// remove_border_outliers_reference() bit for bit.
-void remove_border_outliers(const Image<float>& depth_m, float threshold_m, Image<float>& out);
+void remove_border_outliers(const Image<float>& depth_m, float threshold_m,
+                            float threshold_per_m2, Image<float>& out);
 
 /// Plain per-pixel scalar reference of remove_border_outliers() (same contract).
 void remove_border_outliers_reference(const Image<float>& depth_m, float threshold_m,
-                                      Image<float>& out);
+                                      float threshold_per_m2, Image<float>& out);
 
-/// depth_to_metres() followed by remove_border_outliers() with config.outlier_threshold_m, fused
+/// depth_to_metres() followed by remove_border_outliers() with config.outlier_threshold_m and
+/// config.outlier_threshold_per_m2, fused
 /// into one pass over the frame; bit-for-bit equal to calling the two in sequence.
 /// Throws like depth_to_metres().
 void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, Image<float>& out);

@@ -33,11 +33,12 @@ bool bitwise_equal(const Image<float>& a, const Image<float>& b) {
 }
 
 /// Runs both outlier filters, checks they agree bit for bit, returns the fast result.
-Image<float> filter_both(const Image<float>& in, float t) {
+Image<float> filter_both(const Image<float>& in, float t, float per_m2 = 0.0f) {
   Image<float> fast, ref;
-  remove_border_outliers(in, t, fast);
-  remove_border_outliers_reference(in, t, ref);
-  EXPECT_TRUE(bitwise_equal(fast, ref)) << in.width() << "x" << in.height() << " t=" << t;
+  remove_border_outliers(in, t, per_m2, fast);
+  remove_border_outliers_reference(in, t, per_m2, ref);
+  EXPECT_TRUE(bitwise_equal(fast, ref))
+      << in.width() << "x" << in.height() << " t=" << t << " per_m2=" << per_m2;
   return fast;
 }
 
@@ -244,8 +245,26 @@ TEST(BorderOutliers, FastEqualsReferenceOnRandomImages) {
   for (const auto& [w, h] : sizes)
     for (double holes : {0.0, 0.1, 0.5}) {
       const Image<float> in = test::random_depth(w, h, seed++, holes);
-      for (float t : {0.005f, 0.02f, 0.1f}) filter_both(in, t);
+      for (float t : {0.005f, 0.02f, 0.1f})
+        for (float per_m2 : {0.0f, 0.002f, 0.05f}) filter_both(in, t, per_m2);
     }
+}
+
+TEST(BorderOutliers, ThresholdGrowsWithTheSquareOfTheDepth) {
+  // Kinect-v1-like disparity steps: a fronto-parallel staircase of 3 cm steps every 4 columns at
+  // 3.5 m (t = 2 cm + 0.002 * 3.5^2 = 4.45 cm keeps it), and a 20 cm jump at 1 m (t = 2.2 cm
+  // removes the columns on both sides of it).
+  Image<float> far(16, 4), near(16, 4);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 16; ++x) {
+      far(x, y) = 3.5f + 0.03f * static_cast<float>(x / 4);
+      near(x, y) = x < 8 ? 1.0f : 1.2f;
+    }
+  EXPECT_TRUE(removed(far, filter_both(far, 0.02f, 0.002f)).empty());
+  EXPECT_EQ(removed(far, filter_both(far, 0.02f, 0.0f)).size(), 3u * 2u * 4u);  // the paper's
+  Pixels jump;
+  for (int y = 0; y < 4; ++y) jump.insert({7, y}), jump.insert({8, y});
+  EXPECT_EQ(removed(near, filter_both(near, 0.02f, 0.002f)), jump);
 }
 
 // ----------------------------------------------------------------------------- fused pass
@@ -271,15 +290,18 @@ TEST(PreprocessDepth, FusedEqualsSeparateSteps) {
           v = static_cast<std::uint16_t>(4500 + rng() % 60000);
         f.depth(x, y) = v;
       }
-    for (double t : {0.02, 0.0, 0.001}) {
-      PreprocessConfig config;
-      config.outlier_threshold_m = t;
-      Image<float> metres, separate, fused;
-      depth_to_metres(f, config, metres);
-      remove_border_outliers_reference(metres, static_cast<float>(t), separate);
-      preprocess_depth(f, config, fused);
-      EXPECT_TRUE(bitwise_equal(fused, separate)) << w << "x" << h << " t=" << t;
-    }
+    for (double t : {0.02, 0.0, 0.001})
+      for (double per_m2 : {0.0, 0.006}) {
+        PreprocessConfig config;
+        config.outlier_threshold_m = t;
+        config.outlier_threshold_per_m2 = per_m2;
+        Image<float> metres, separate, fused;
+        depth_to_metres(f, config, metres);
+        remove_border_outliers_reference(metres, static_cast<float>(t),
+                                         static_cast<float>(per_m2), separate);
+        preprocess_depth(f, config, fused);
+        EXPECT_TRUE(bitwise_equal(fused, separate)) << w << "x" << h << " t=" << t;
+      }
   }
 }
 
@@ -317,8 +339,10 @@ TEST(PreprocessRealData, FastEqualsReferenceOnRedKitchen) {
     ASSERT_TRUE(test::read_png16(test::redkitchen_frame(i), f.depth)) << test::redkitchen_frame(i);
     Image<float> metres, ref, fast, fused;
     depth_to_metres(f, config, metres);
-    remove_border_outliers_reference(metres, 0.02f, ref);
-    remove_border_outliers(metres, 0.02f, fast);
+    const float t = static_cast<float>(config.outlier_threshold_m);
+    const float per_m2 = static_cast<float>(config.outlier_threshold_per_m2);
+    remove_border_outliers_reference(metres, t, per_m2, ref);
+    remove_border_outliers(metres, t, per_m2, fast);
     preprocess_depth(f, config, fused);
     ASSERT_TRUE(bitwise_equal(fast, ref)) << "frame " << i;
     ASSERT_TRUE(bitwise_equal(fused, ref)) << "frame " << i;
