@@ -132,7 +132,7 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
 }
 
 void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQueue* out,
-                StageStats& stats, StageStats* latency, ChainState& state,
+                StageStats& stats, StageStats* latency, StageStats* end_to_end, ChainState& state,
                 const PipelineOptions& options, const std::optional<std::size_t>& expected) {
   while (std::optional<FramePtr> item = in.pop()) {
     FrameWork& frame = **item;
@@ -168,6 +168,9 @@ void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQ
     // Last stage: the frame is done.
     const std::size_t done = ++state.frames_processed;
     const auto now = Clock::now();
+    if (end_to_end)
+      end_to_end->add_ms(
+          std::chrono::duration<double, std::milli>(now - frame.raw.arrived_at).count());
     state.last_done_ns.store(
         std::chrono::duration_cast<std::chrono::nanoseconds>(now - state.start).count());
     if (options.on_progress) {
@@ -213,8 +216,9 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
       FrameQueue* out = i + 1 < stages.size() ? queues[i + 1].get() : nullptr;
       threads.emplace_back(stage_loop, std::cref(stages[i]), i + 1, std::ref(*queues[i]), out,
                            std::ref(result.stages[i + 1]),
-                           i == 0 ? &result.capture_latency : nullptr, std::ref(state),
-                           std::cref(options), std::cref(expected));
+                           i == 0 ? &result.capture_latency : nullptr,
+                           i + 1 == stages.size() ? &result.end_to_end_latency : nullptr,
+                           std::ref(state), std::cref(options), std::cref(expected));
     }
     if (stages.empty()) {
       state.fail(Status::internal("pipeline has no stages"));

@@ -101,6 +101,9 @@ struct PipelineResult {
   /// Includes the rest of read(), the hand-over and any wait in the queue; dropped frames have
   /// none.
   StageStats capture_latency{"capture_latency"};
+  /// From the frame's arrival (as above) to the last stage finishing it, for every processed
+  /// frame: the age of the newest result, which grows with the frames queued between stages.
+  StageStats end_to_end_latency{"end_to_end_latency"};
   /// CPU time of the capture thread (reading, decoding, pacing excluded as it sleeps) over the
   /// run's wall time, in percent of one core.
   double capture_cpu_percent = 0.0;

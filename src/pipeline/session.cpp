@@ -200,6 +200,11 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
                              {"p50", latency.ms_p50},
                              {"p95", latency.ms_p95},
                              {"max", latency.ms_max}};
+  const TimingSummary end_to_end = r.pipeline.end_to_end_latency.summary();
+  j["end_to_end_latency_ms"] = {{"mean", end_to_end.ms_mean},
+                                {"p50", end_to_end.ms_p50},
+                                {"p95", end_to_end.ms_p95},
+                                {"max", end_to_end.ms_max}};
   j["capture_cpu_percent"] = r.pipeline.capture_cpu_percent;
   j["mesh"] = {{"vertices", r.mesh_vertices},
                {"faces", r.mesh_faces},

@@ -185,6 +185,9 @@ TEST(Pipeline, CaptureLatencyStartsWhenTheFrameArrived) {
   const PipelineResult r = run_pipeline(camera, {rec.stage("s", 30ms)}, PipelineOptions{}, stop);
   ASSERT_FALSE(r.capture_latency.samples_ms().empty());
   for (const double ms : r.capture_latency.samples_ms()) EXPECT_GE(ms, 40.0);
+  // ... and so does the end-to-end latency, with the 30 ms of the only stage on top.
+  ASSERT_EQ(r.end_to_end_latency.samples_ms().size(), r.counters.frames_processed);
+  for (const double ms : r.end_to_end_latency.samples_ms()) EXPECT_GE(ms, 70.0);
 
   // A recording leaves arrived_at empty: the pipeline stamps the delivery, so the latency is the
   // hand-over only (well below the 1 s bound even on a loaded machine), never the clock's epoch.
