@@ -418,6 +418,13 @@ TEST(LiveViewDisplayLoss, ServerEndingMidRunEndsTheViewNotTheProcess) {
   const char* old = std::getenv("DISPLAY");
   const std::string saved = old ? old : "";
   ::setenv("DISPLAY", x.display().c_str(), 1);  // read only before the window exists
+  {
+    // As GlTest does: Mesa's libraries stay mapped after glfwTerminate() (LeakSanitizer).
+    std::string error;
+    WindowOptions hidden;
+    hidden.visible = false;
+    if (create_window(hidden, error)) pin_loaded_libraries();
+  }
   auto frame = std::make_shared<ViewFrame>(testing::sphere_wall_frame(64, 48));
   std::shared_ptr<const ViewFrame> published = frame;
   ViewCommandQueue commands;
