@@ -192,7 +192,7 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
 
   // queues[0] is the capture edge; queues[i] feeds stages[i]. A live edge holds at most one
   // waiting frame, the newest: when the chain falls behind, a frame never waits behind older ones,
-  // so the capture latency stays below one camera period plus the first stage's time.
+  // so the capture latency stays within about one camera period (plus scheduling delays).
   std::vector<std::unique_ptr<FrameQueue>> queues;
   for (std::size_t i = 0; i < stages.size(); ++i) {
     const bool live_edge = i == 0 && drop_at_edge;
