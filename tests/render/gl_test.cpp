@@ -423,7 +423,8 @@ TEST(LiveViewDisplayLoss, ServerEndingMidRunEndsTheViewNotTheProcess) {
     std::string error;
     WindowOptions hidden;
     hidden.visible = false;
-    if (create_window(hidden, error)) pin_loaded_libraries();
+    const std::unique_ptr<GlWindow> pin_window = create_window(hidden, error);
+    if (pin_window) pin_loaded_libraries();
   }
   auto frame = std::make_shared<ViewFrame>(testing::sphere_wall_frame(64, 48));
   std::shared_ptr<const ViewFrame> published = frame;
