@@ -6,7 +6,8 @@ set -euo pipefail
 packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-dev libcli11-dev
           nlohmann-json3-dev libyaml-cpp-dev libtbb-dev
           libopenni2-dev libfreenect-dev             # live cameras (libusb comes with libfreenect)
-          libglfw3-dev libglm-dev libgl-dev)         # live view: GLFW window, GLM, GL headers
+          libglfw3-dev libglm-dev libgl-dev          # live view: GLFW window, GLM, GL headers
+          libx11-dev)                                # live view: surviving a lost X display
 if [[ "${1:-}" == "--tests" ]]; then
   # The GL tests run on a virtual X server with Mesa's software OpenGL.
   packages+=(libgtest-dev xvfb xauth libgl1-mesa-dri libegl-mesa0 libglx-mesa0)

@@ -171,7 +171,8 @@ class FreenectSource : public Source {
 
   /// Runs inside freenect_process_events, on the reading thread.
   void deliver(const void* depth, std::uint32_t timestamp) {
-    if (!target_) return;  // a callback outside read(): nobody asked, nothing to fill
+    if (!target_) return;                // a callback outside read(): nobody asked, nothing to fill
+    target_->arrived_at = Clock::now();  // the capture latency starts at the driver's callback
     if (delivered_) ++frames_overwritten_;  // two frames in one call: the newer wins
     Image<std::uint16_t>& out = target_->depth;
     if (out.width() != kFakenectWidth || out.height() != kFakenectHeight)

@@ -22,7 +22,8 @@ FreenectUri parse_freenect_uri(const std::string& uri);
 
 /// Opens a Kinect v1 as a live Source of 640x480 depth in millimetres (depth_scale 1000):
 /// raw 11-bit disparity converted by kinect_raw_to_mm (default), or the driver's own mm mode.
-/// Timestamps: the device's 60 MHz clock, unwrapped, in seconds. A read that sees libfreenect fail
+/// Timestamps: the device's 60 MHz clock, unwrapped, in seconds; DepthFrame::arrived_at is the
+/// host time of libfreenect's depth callback. A read that sees libfreenect fail
 /// (unplug) or no frame for 2 s returns device_lost. Throws device_error for no such device, a
 /// device that cannot be opened (busy, permissions), or one already open in this process; under
 /// fakenect, also when FAKENECT_PATH does not name a dump (fakenect would exit the process).

@@ -96,6 +96,9 @@ class OpenNI2Source : public Source {
       return Status::device_lost(lost_);
     }
     ++frames_read_;
+    // Live: OpenNI2's own thread received the frame just before the wait returned.
+    frame.arrived_at =
+        file_ ? std::chrono::steady_clock::time_point{} : std::chrono::steady_clock::now();
     const int width = ref_.getWidth();
     const int height = ref_.getHeight();
     const int stride = ref_.getStrideInBytes();

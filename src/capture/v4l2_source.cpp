@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 
@@ -177,6 +178,8 @@ class V4l2Source : public Source {
     if (rc < 0) return lose(name_ + ": poll failed: " + errno_text());
     if (pfd.revents & (POLLERR | POLLHUP | POLLNVAL))
       return lose(name_ + ": the device went away (unplugged?)");
+    // The capture latency starts when a finished buffer woke us (the driver's callback, in effect).
+    const auto woke = std::chrono::steady_clock::now();
 
     v4l2_buffer buf{};
     buf.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
@@ -205,6 +208,7 @@ class V4l2Source : public Source {
     frame.timestamp_s = static_cast<double>(buf.timestamp.tv_sec) +
                         static_cast<double>(buf.timestamp.tv_usec) * 1e-6;
     frame.sequence = buf.sequence;
+    frame.arrived_at = woke;
     frame.origin = name_;
     frame.T_world_camera_gt.reset();
     return Status::ok();

@@ -2,6 +2,7 @@
 /// @brief One depth frame as it leaves a Source: raw 16-bit depth plus everything needed to use it.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -21,6 +22,10 @@ struct DepthFrame {
   std::uint64_t sequence = 0;      ///< index of the frame in its source (skipped frames count)
   std::string origin;              ///< where it came from (file path or device), for messages
   std::optional<Pose> T_world_camera_gt;  ///< ground truth when the source knows it
+  /// Host steady-clock time at which the frame reached this process: set by live sources (the
+  /// driver's frame callback or buffer wake-up); recordings leave it empty and the pipeline stamps
+  /// the moment the frame is delivered. Where the capture latency starts.
+  std::chrono::steady_clock::time_point arrived_at{};
 };
 
 }  // namespace aoscan

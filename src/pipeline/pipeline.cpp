@@ -2,6 +2,8 @@
 /// @brief Stage threads, queues between them, first-error shutdown.
 #include "pipeline/pipeline.h"
 
+#include <time.h>
+
 #include <chrono>
 #include <exception>
 #include <mutex>
@@ -61,9 +63,20 @@ Status run_guarded(const StageDef& stage, FrameWork& frame) {
   }
 }
 
-void capture_loop(Source& source, std::size_t stage_count, const PipelineOptions& options,
-                  const std::atomic<bool>& stop_requested, ObjectPool<FrameWork>& pool,
-                  FrameQueue& out, StageStats& stats, ChainState& state) {
+/// CPU time the calling thread has used so far (seconds).
+double thread_cpu_s() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// Reads the source until it ends, the stop flag is set, max_frames are read or the chain fails;
+/// returns the capture thread's CPU use over that time in percent of one core.
+double capture_loop(Source& source, std::size_t stage_count, const PipelineOptions& options,
+                    const std::atomic<bool>& stop_requested, ObjectPool<FrameWork>& pool,
+                    FrameQueue& out, StageStats& stats, ChainState& state) {
+  const double cpu_start_s = thread_cpu_s();
+  const auto wall_start = Clock::now();
   std::optional<double> first_timestamp;
   Clock::time_point pace_start;
   while (!stop_requested.load() && !state.failed()) {
@@ -72,6 +85,7 @@ void capture_loop(Source& source, std::size_t stage_count, const PipelineOptions
     frame->stage_ms.assign(stage_count + 1, 0.0);  // keeps its capacity: no allocation
     frame->export_mesh.reset();
     frame->export_trajectory.reset();
+    frame->raw.arrived_at = {};  // a live source stamps it; otherwise set below
     const auto t0 = Clock::now();
     Status status;
     try {
@@ -107,21 +121,24 @@ void capture_loop(Source& source, std::size_t stage_count, const PipelineOptions
         std::this_thread::sleep_until(pace_start + std::chrono::duration_cast<Clock::duration>(
                                                        std::chrono::duration<double>(offset_s)));
     }
+    // A recording's frame arrives when it is delivered: now (after the pacing, with --realtime).
+    if (frame->raw.arrived_at == Clock::time_point{}) frame->raw.arrived_at = Clock::now();
     frame->frames_dropped_before = out.dropped();
-    frame->queued_at = Clock::now();
     if (!out.push(std::move(frame))) break;
   }
   out.close();
+  const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
+  return wall_s > 0 ? 100.0 * (thread_cpu_s() - cpu_start_s) / wall_s : 0.0;
 }
 
 void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQueue* out,
-                StageStats& stats, StageStats* latency, ChainState& state,
+                StageStats& stats, StageStats* latency, StageStats* end_to_end, ChainState& state,
                 const PipelineOptions& options, const std::optional<std::size_t>& expected) {
   while (std::optional<FramePtr> item = in.pop()) {
     FrameWork& frame = **item;
     const auto t0 = Clock::now();
     if (latency)
-      latency->add_ms(std::chrono::duration<double, std::milli>(t0 - frame.queued_at).count());
+      latency->add_ms(std::chrono::duration<double, std::milli>(t0 - frame.raw.arrived_at).count());
     const Status status = run_guarded(stage, frame);
     const double ms = ms_since(t0);
     stats.add_ms(ms);
@@ -151,6 +168,9 @@ void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQ
     // Last stage: the frame is done.
     const std::size_t done = ++state.frames_processed;
     const auto now = Clock::now();
+    if (end_to_end)
+      end_to_end->add_ms(
+          std::chrono::duration<double, std::milli>(now - frame.raw.arrived_at).count());
     state.last_done_ns.store(
         std::chrono::duration_cast<std::chrono::nanoseconds>(now - state.start).count());
     if (options.on_progress) {
@@ -170,12 +190,15 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
   ChainState state;
   const bool drop_at_edge = source.live() || options.realtime;
 
-  // queues[0] is the capture edge; queues[i] feeds stages[i].
+  // queues[0] is the capture edge; queues[i] feeds stages[i]. A live edge holds at most one
+  // waiting frame, the newest: when the chain falls behind, a frame never waits behind older ones,
+  // so the capture latency stays within about one camera period (plus scheduling delays).
   std::vector<std::unique_ptr<FrameQueue>> queues;
   for (std::size_t i = 0; i < stages.size(); ++i) {
-    const auto policy =
-        (i == 0 && drop_at_edge) ? OverflowPolicy::kDropOldest : OverflowPolicy::kBlock;
-    queues.push_back(std::make_unique<FrameQueue>(options.queue_capacity, policy));
+    const bool live_edge = i == 0 && drop_at_edge;
+    queues.push_back(std::make_unique<FrameQueue>(
+        live_edge ? kLiveEdgeCapacity : options.queue_capacity,
+        live_edge ? OverflowPolicy::kDropOldest : OverflowPolicy::kBlock));
   }
 
   std::optional<std::size_t> expected = source.size();
@@ -193,14 +216,15 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
       FrameQueue* out = i + 1 < stages.size() ? queues[i + 1].get() : nullptr;
       threads.emplace_back(stage_loop, std::cref(stages[i]), i + 1, std::ref(*queues[i]), out,
                            std::ref(result.stages[i + 1]),
-                           i == 0 ? &result.capture_latency : nullptr, std::ref(state),
-                           std::cref(options), std::cref(expected));
+                           i == 0 ? &result.capture_latency : nullptr,
+                           i + 1 == stages.size() ? &result.end_to_end_latency : nullptr,
+                           std::ref(state), std::cref(options), std::cref(expected));
     }
     if (stages.empty()) {
       state.fail(Status::internal("pipeline has no stages"));
     } else {
-      capture_loop(source, stages.size(), options, stop_requested, pool, *queues[0],
-                   result.stages[0], state);
+      result.capture_cpu_percent = capture_loop(source, stages.size(), options, stop_requested,
+                                                pool, *queues[0], result.stages[0], state);
     }
     for (std::thread& t : threads) t.join();
   }

@@ -42,7 +42,6 @@ struct FrameWork {
   /// Milliseconds this frame spent in each step: [0] = capture (read), [i] = the i-th StageDef,
   /// filled as it passes (for the HUD; StageStats keep the run's statistics).
   std::vector<double> stage_ms;
-  std::chrono::steady_clock::time_point queued_at;  ///< when capture handed the frame on
   std::size_t frames_dropped_before = 0;  ///< capture-edge drops counted when this frame was queued
   bool integration_paused = false;  ///< the track stage tracked this frame without integrating it
   bool model_reset = false;         ///< the track stage started a new model with this frame
@@ -78,10 +77,15 @@ struct Progress {
   double elapsed_s = 0.0;
 };
 
+/// Frames the capture edge holds for live sources and `--realtime` replay (drop-oldest).
+constexpr std::size_t kLiveEdgeCapacity = 1;
+
 struct PipelineOptions {
   std::optional<std::size_t> max_frames;  ///< stop after this many frames read
   bool realtime = false;  ///< pace replay by the recorded timestamps and drop like a live camera
   bool strict = false;    ///< a corrupt frame ends the run with exit 3 instead of a counted skip
+  /// Frames buffered between two stages, and at the capture edge of a replay without
+  /// `--realtime` (blocking). A live edge always holds kLiveEdgeCapacity.
   std::size_t queue_capacity = 4;
   std::function<void(const Progress&)> on_progress;  ///< called by the last stage, may be empty
 };
@@ -91,9 +95,18 @@ struct PipelineResult {
   PipelineCounters counters;
   double wall_s = 0.0;             ///< first frame read to last frame through the chain
   std::vector<StageStats> stages;  ///< "capture" first, then each StageDef in order
-  /// Capture-to-pipeline latency: from the capture thread handing a frame on to the first stage
-  /// taking it (includes any wait in the queue).
+  /// Capture-to-pipeline latency of every frame the first stage took: from the frame's arrival
+  /// (DepthFrame::arrived_at: a live camera's driver callback; for recordings the end of read(),
+  /// with --realtime the paced delivery time) to the first stage taking it from the capture edge.
+  /// Includes the rest of read(), the hand-over and any wait in the queue; dropped frames have
+  /// none.
   StageStats capture_latency{"capture_latency"};
+  /// From the frame's arrival (as above) to the last stage finishing it, for every processed
+  /// frame: the age of the newest result, which grows with the frames queued between stages.
+  StageStats end_to_end_latency{"end_to_end_latency"};
+  /// CPU time of the capture thread (reading, decoding, pacing excluded as it sleeps) over the
+  /// run's wall time, in percent of one core.
+  double capture_cpu_percent = 0.0;
 };
 
 /// Runs `source` through `stages` until the source ends, `max_frames` are read, `stop_requested`

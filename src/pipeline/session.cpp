@@ -132,7 +132,8 @@ constexpr int kWindowNice = 10;
 /// The live view on its own thread; stopped and joined by stop() or the destructor.
 class WindowThread {
  public:
-  /// `on_unavailable` runs on the window thread when no window could be made.
+  /// `on_unavailable` runs on the window thread when no window could be made, or when the
+  /// display went away while it was open.
   WindowThread(ViewStage& view, ViewCommandQueue& commands, const std::string& title,
                std::function<void()> on_unavailable) {
     LiveViewOptions options;
@@ -148,10 +149,12 @@ class WindowThread {
         return latest ? latest->first : nullptr;
       };
       const LiveViewResult result = run_live_view(options, feed, commands, stop_);
-      if (result.outcome == LiveViewResult::Outcome::kUnavailable) {
-        on_unavailable();
+      using Outcome = LiveViewResult::Outcome;
+      if (result.outcome != Outcome::kUnavailable) shown_.store(true);
+      if (result.outcome == Outcome::kUnavailable || result.outcome == Outcome::kDisplayLost) {
+        display_lost_.store(result.outcome == Outcome::kDisplayLost);
+        on_unavailable();  // the run goes on headless
       } else {
-        shown_.store(true);
         spdlog::info("live view closed after {} redraws ({})", result.redraws, result.gl_renderer);
       }
     });
@@ -162,10 +165,12 @@ class WindowThread {
   }
   ~WindowThread() { stop(); }
   bool shown() const { return shown_.load(); }
+  bool display_lost() const { return display_lost_.load(); }
 
  private:
   std::atomic<bool> stop_{false};
   std::atomic<bool> shown_{false};
+  std::atomic<bool> display_lost_{false};
   std::thread thread_;
 };
 
@@ -191,8 +196,16 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   }
   j["stages"] = stages;
   const TimingSummary latency = r.pipeline.capture_latency.summary();
-  j["capture_latency_ms"] = {{"mean", latency.ms_mean}, {"p50", latency.ms_p50},
-                             {"p95", latency.ms_p95}, {"max", latency.ms_max}};
+  j["capture_latency_ms"] = {{"mean", latency.ms_mean},
+                             {"p50", latency.ms_p50},
+                             {"p95", latency.ms_p95},
+                             {"max", latency.ms_max}};
+  const TimingSummary end_to_end = r.pipeline.end_to_end_latency.summary();
+  j["end_to_end_latency_ms"] = {{"mean", end_to_end.ms_mean},
+                                {"p50", end_to_end.ms_p50},
+                                {"p95", end_to_end.ms_p95},
+                                {"max", end_to_end.ms_max}};
+  j["capture_cpu_percent"] = r.pipeline.capture_cpu_percent;
   j["mesh"] = {{"vertices", r.mesh_vertices},
                {"faces", r.mesh_faces},
                {"ao_unobserved_vertices", r.ao_unobserved_vertices}};
@@ -204,6 +217,7 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["model_resets"] = r.model_resets;
   j["outputs_written_on_request"] = r.outputs_written_on_request;
   j["quit_by_user"] = r.quit_by_user;
+  j["live_view"] = r.live_view_lost ? "display_lost" : r.live_view_shown ? "shown" : "none";
   j["status"] = r.exit_code == ExitCode::kOk ? "ok" : r.error;
   std::ofstream out(path);
   out << j.dump(2) << "\n";
@@ -284,6 +298,7 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   if (window) {
     window->stop();
     result.live_view_shown = window->shown();
+    result.live_view_lost = window->display_lost();
   }
   result.pipeline.counters.frames_tracking_lost = processing.frames_tracking_lost();
   result.model_resets = processing.model_resets();

@@ -52,6 +52,7 @@ struct SessionResult {
   std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
   bool quit_by_user = false;                   ///< `q`, Esc or the window closed
   bool live_view_shown = false;                ///< a window was open during the run
+  bool live_view_lost = false;  ///< the display went away mid-run; the run went on headless
 };
 
 /// Runs `source` through the chain (plus a "view" stage when a window or snapshots are wanted),

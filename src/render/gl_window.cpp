@@ -1,12 +1,17 @@
 /// @file gl_window.cpp
-/// @brief GLFW: the window, its GL 3.3 core context, and keyboard / mouse input.
+/// @brief GLFW: the window, its GL 3.3 core context, keyboard / mouse input, and surviving the
+/// loss of the X display.
 #include "render/gl_window.h"
 
+#include <atomic>
 #include <cstdlib>
 #include <utility>
 
 #define GLFW_INCLUDE_NONE  // GL types come from GL/glcorearb.h (gl_api.h)
 #include <GLFW/glfw3.h>
+// Last: Xlib's macros (Status, Bool, None, ...) must not reach any other header.
+#define GLFW_EXPOSE_NATIVE_X11
+#include <GLFW/glfw3native.h>
 
 namespace aoscan {
 namespace {
@@ -23,10 +28,28 @@ void* get_proc(const char* name) {
   return reinterpret_cast<void*>(glfwGetProcAddress(name));
 }
 
+/// Set by Xlib's I/O error path when the connection to the display breaks. Process-wide like
+/// GLFW itself (one window per process); cleared by create().
+std::atomic<bool> g_display_lost{false};
+
+/// Replaces Xlib's default I/O error handler, which prints several lines: the live view reports
+/// the loss in one line of its own.
+int on_x_io_error(Display*) {
+  g_display_lost.store(true);
+  return 0;
+}
+
+/// Replaces Xlib's exit() after an I/O error (libX11 >= 1.7): the connection stays marked as
+/// broken, later calls on it return at once, and the process goes on.
+void on_x_io_error_exit(Display*, void*) {
+  g_display_lost.store(true);
+}
+
 }  // namespace
 
 struct GlWindow::Impl {
   GLFWwindow* window = nullptr;
+  std::string display_name;
   GlApi gl;
   WindowEvents events;
   bool dragging = false;
@@ -89,10 +112,19 @@ std::unique_ptr<GlWindow> GlWindow::create(const WindowOptions& options, std::st
     error = "no display (DISPLAY is not set)";
     return nullptr;
   }
+  g_display_lost.store(false);
+  XSetIOErrorHandler(on_x_io_error);
   if (!glfwInit()) {
     error = "GLFW cannot start: " + t_glfw_error;
     return nullptr;
   }
+  Display* x_display = glfwGetX11Display();
+  if (!x_display) {
+    error = "GLFW has no X11 display";
+    glfwTerminate();
+    return nullptr;
+  }
+  XSetIOErrorExitHandler(x_display, on_x_io_error_exit, nullptr);
   glfwDefaultWindowHints();
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
@@ -109,6 +141,7 @@ std::unique_ptr<GlWindow> GlWindow::create(const WindowOptions& options, std::st
   glfwMakeContextCurrent(window);
   auto impl = std::make_unique<Impl>();
   impl->window = window;
+  impl->display_name = DisplayString(x_display);
   if (!impl->gl.load(get_proc, error) || impl->gl.version() < 33) {
     if (error.empty())
       error = "OpenGL 3.3 is needed, the context has " + std::to_string(impl->gl.version() / 10) +
@@ -138,6 +171,11 @@ const GlApi& GlWindow::gl() const {
 }
 
 WindowEvents GlWindow::poll_events(double timeout_s) {
+  if (g_display_lost.load()) {  // nothing to wait for on a broken connection
+    WindowEvents out;
+    out.display_lost = true;
+    return out;
+  }
   if (timeout_s > 0.0) {
     glfwWaitEventsTimeout(timeout_s);
   } else {
@@ -145,6 +183,7 @@ WindowEvents GlWindow::poll_events(double timeout_s) {
   }
   WindowEvents out = std::exchange(impl_->events, WindowEvents{});
   out.close_requested = glfwWindowShouldClose(impl_->window) != 0;
+  out.display_lost = g_display_lost.load();
   return out;
 }
 
@@ -153,7 +192,15 @@ void GlWindow::framebuffer_size(int& width, int& height) const {
 }
 
 void GlWindow::swap_buffers() {
-  glfwSwapBuffers(impl_->window);
+  if (!g_display_lost.load()) glfwSwapBuffers(impl_->window);
+}
+
+bool GlWindow::display_lost() const {
+  return g_display_lost.load();
+}
+
+const std::string& GlWindow::display_name() const {
+  return impl_->display_name;
 }
 
 std::string GlWindow::renderer() const {

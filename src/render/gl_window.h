@@ -26,12 +26,20 @@ struct WindowEvents {
   std::vector<Key> keys;    ///< presses, in order
   double drag_dx_px = 0.0;  ///< cursor motion with the left button held (screen pixels)
   double drag_dy_px = 0.0;
-  double scroll = 0.0;  ///< wheel steps, positive away from the user
-  bool close_requested = false;
+  double scroll = 0.0;           ///< wheel steps, positive away from the user
+  bool close_requested = false;  ///< the user closed the window (window manager's close)
+  /// The connection to the display broke (X server gone, client killed): nothing more can be
+  /// drawn; the window should be dropped.
+  bool display_lost = false;
 };
 
 /// Owns GLFW (initialised by create(), terminated by the destructor): one window per process at a
 /// time, created, used and destroyed on one thread.
+///
+/// A display that goes away while the window is open must not end the process (Xlib's default
+/// I/O error handling calls exit()): create() installs X I/O error handlers that only mark the
+/// display as lost, poll_events() then reports display_lost, and the destructor releases what it
+/// can without talking to the dead server.
 class GlWindow {
  public:
   /// Opens the window, makes its context current on this thread and loads the GL functions. Returns
@@ -50,6 +58,10 @@ class GlWindow {
   void swap_buffers();
   /// The renderer string of the context, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
   std::string renderer() const;
+  /// True once the connection to the display broke (see WindowEvents::display_lost).
+  bool display_lost() const;
+  /// The display's name, e.g. ":99" (for messages).
+  const std::string& display_name() const;
 
   struct Impl;
 

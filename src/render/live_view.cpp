@@ -34,6 +34,7 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
   if (!window) return unavailable(error);
   LiveViewResult result;
   result.gl_renderer = window->renderer();
+  spdlog::info("live view open on {} ({})", window->display_name(), result.gl_renderer);
   {
     GlViewRenderer renderer;  // destroyed before the window, while its context is current
     if (!renderer.init(window->gl(), error, options.shader_overrides)) return unavailable(error);
@@ -51,6 +52,11 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
 
     while (!stop.load()) {
       const WindowEvents events = window->poll_events(wait_s);
+      if (events.display_lost) {
+        result.outcome = LiveViewResult::Outcome::kDisplayLost;
+        result.message = "the display " + window->display_name() + " closed";
+        break;
+      }
       for (const Key key : events.keys) {
         handle_key(key, state, commands);
         if (key == Key::kR) orbit_moved_by_user = false;  // refit to the new model
@@ -111,6 +117,8 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
       if (options.max_redraws > 0 && result.redraws >= options.max_redraws) break;
     }
   }
+  if (result.outcome == LiveViewResult::Outcome::kDisplayLost)
+    spdlog::warn("live view lost: {}; continuing headless", result.message);
   return result;
 }
 

@@ -43,9 +43,10 @@ struct LiveViewResult {
     kStopped,      ///< `stop` became true
     kQuit,         ///< q / Esc / window closed: kQuit was pushed
     kUnavailable,  ///< no window could be made (message says why); the run goes on headless
+    kDisplayLost,  ///< the display went away while the window was open; the run goes on headless
   };
   Outcome outcome = Outcome::kStopped;
-  std::string message;  ///< one line for kUnavailable
+  std::string message;  ///< one line for kUnavailable and kDisplayLost
   long redraws = 0;
   std::string gl_renderer;  ///< GL_RENDERER of the context, when one was made
 };
@@ -61,10 +62,13 @@ struct LiveViewState {
 /// s → kWriteOutputs, v → next view, q / Esc → kQuit (state.quit).
 void handle_key(Key key, LiveViewState& state, ViewCommandQueue& commands);
 
-/// Opens the window and redraws the newest frame until `stop` is set, the user quits (kQuit is
-/// pushed, also when the window is closed) or no window can be made: then it logs one warning line
-/// ("live view unavailable: ...; continuing headless") and returns kUnavailable at once. All GLFW
-/// and GL calls happen on the calling thread. Never throws.
+/// Opens the window and redraws the newest frame until `stop` is set, the user quits (q, Esc or
+/// closing the window: kQuit is pushed, like SIGINT), no window can be made (one warning line
+/// "live view unavailable: ...; continuing headless", returns kUnavailable at once) or the display
+/// goes away while the window is open (X server ended, connection killed: one warning line
+/// "live view lost: ...; continuing headless", returns kDisplayLost; nothing is pushed, so the
+/// run goes on). Logs "live view open on DISPLAY (renderer)" at info level when the window is up.
+/// All GLFW and GL calls happen on the calling thread. Never throws.
 LiveViewResult run_live_view(const LiveViewOptions& options, const ViewFeed& feed,
                              ViewCommandQueue& commands, const std::atomic<bool>& stop);
 

@@ -1,11 +1,8 @@
 // End-to-end tests of the aoscan executable: exit codes, one-line errors, outputs, signals.
 #include <png.h>
 #include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -17,53 +14,27 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "app/cli_util.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using aoscan::testing::AoscanProcess;
+using aoscan::testing::CliRun;
+using aoscan::testing::quote;
+using aoscan::testing::read_stats;
+using aoscan::testing::read_text;
+using aoscan::testing::run_aoscan;
 
 /// A fresh empty folder per test.
 fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_cli_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
-CliResult run_cli(const std::string& args, const fs::path& scratch) {
-  const fs::path out = scratch / "stdout.txt";
-  const fs::path err = scratch / "stderr.txt";
-  const std::string cmd = std::string(AOSCAN_BINARY) + " " + args + " > " + quote(out.string()) +
-                          " 2> " + quote(err.string()) + " < /dev/null";
-  const int status = std::system(cmd.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
-}
-
-nlohmann::json read_stats(const fs::path& out_dir) {
-  return nlohmann::json::parse(read_text(out_dir / "stats.json"));
+  return aoscan::testing::scratch_dir("cli_" + name);
 }
 
 /// The error is exactly one line, the last on stderr, starting with "aoscan: error:" and
 /// mentioning `needle` (warnings about skipped frames may come before it).
-void expect_one_line_error(const CliResult& r, const std::string& needle) {
+void expect_one_line_error(const CliRun& r, const std::string& needle) {
   ASSERT_FALSE(r.err.empty());
   EXPECT_EQ(r.err.back(), '\n') << r.err;
   const std::size_t start = r.err.rfind('\n', r.err.size() - 2);
@@ -80,10 +51,10 @@ void expect_one_line_error(const CliResult& r, const std::string& needle) {
 /// Records a small synthetic recording into dir/rec (64x48 keeps it fast).
 fs::path make_recording(const fs::path& dir, int frames = 8) {
   const fs::path rec = dir / "rec";
-  const CliResult r = run_cli("record " + quote("synth:corner?frames=" + std::to_string(frames) +
-                                                "&width=64&height=48") +
-                                  " " + quote(rec.string()),
-                              dir);
+  const CliRun r = run_aoscan(
+      "record " + quote("synth:corner?frames=" + std::to_string(frames) + "&width=64&height=48") +
+          " " + quote(rec.string()),
+      dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
   return rec;
 }
@@ -100,61 +71,62 @@ void write_png(const fs::path& path, int width, int height, png_uint_32 format) 
 
 TEST(Cli, VersionAndHelp) {
   const fs::path dir = temp_dir("version");
-  const CliResult v = run_cli("--version", dir);
+  const CliRun v = run_aoscan("--version", dir);
   EXPECT_EQ(v.exit_code, 0);
   EXPECT_NE(v.out.find("aoscan "), std::string::npos);
-  const CliResult h = run_cli("--help", dir);
+  const CliRun h = run_aoscan("--help", dir);
   EXPECT_EQ(h.exit_code, 0);
   for (const char* sub : {"replay", "scan", "record", "devices"})
     EXPECT_NE(h.out.find(sub), std::string::npos) << sub;
-  EXPECT_EQ(run_cli("replay --help", dir).exit_code, 0);
+  EXPECT_EQ(run_aoscan("replay --help", dir).exit_code, 0);
 }
 
 TEST(Cli, UsageErrorsExitTwo) {
   const fs::path dir = temp_dir("usage");
-  expect_one_line_error(run_cli("", dir), "subcommand");
-  EXPECT_EQ(run_cli("", dir).exit_code, 2);
-  EXPECT_EQ(run_cli("replay", dir).exit_code, 2);
-  EXPECT_EQ(run_cli("replay x --frames abc", dir).exit_code, 2);
-  const CliResult bad_key = run_cli("replay synth:corner --set ao.colour=red", dir);
+  expect_one_line_error(run_aoscan("", dir), "subcommand");
+  EXPECT_EQ(run_aoscan("", dir).exit_code, 2);
+  EXPECT_EQ(run_aoscan("replay", dir).exit_code, 2);
+  EXPECT_EQ(run_aoscan("replay x --frames abc", dir).exit_code, 2);
+  const CliRun bad_key = run_aoscan("replay synth:corner --set ao.colour=red", dir);
   EXPECT_EQ(bad_key.exit_code, 2);
   expect_one_line_error(bad_key, "ao.colour");
-  const CliResult bad_value = run_cli("replay synth:corner --set ao.radius_m=-1", dir);
+  const CliRun bad_value = run_aoscan("replay synth:corner --set ao.radius_m=-1", dir);
   EXPECT_EQ(bad_value.exit_code, 2);
   expect_one_line_error(bad_value, "ao.radius_m");
   std::ofstream(dir / "bad.yaml") << "ao: [1, 2\n";
-  const CliResult bad_file = run_cli("replay synth:corner --config " + (dir / "bad.yaml").string(), dir);
+  const CliRun bad_file =
+      run_aoscan("replay synth:corner --config " + (dir / "bad.yaml").string(), dir);
   EXPECT_EQ(bad_file.exit_code, 2);
   expect_one_line_error(bad_file, "bad.yaml");
 }
 
 TEST(Cli, UnknownSynthSceneOrParameterExitTwo) {
   const fs::path dir = temp_dir("synth_bad");
-  const CliResult scene = run_cli("replay synth:castle --out " + quote((dir / "o").string()), dir);
+  const CliRun scene = run_aoscan("replay synth:castle --out " + quote((dir / "o").string()), dir);
   EXPECT_EQ(scene.exit_code, 2);
   expect_one_line_error(scene, "castle");
-  const CliResult param = run_cli("replay " + quote("synth:corner?fraems=3"), dir);
+  const CliRun param = run_aoscan("replay " + quote("synth:corner?fraems=3"), dir);
   EXPECT_EQ(param.exit_code, 2);
   expect_one_line_error(param, "fraems");
-  const CliResult value = run_cli("replay " + quote("synth:corner?noise=loud"), dir);
+  const CliRun value = run_aoscan("replay " + quote("synth:corner?noise=loud"), dir);
   EXPECT_EQ(value.exit_code, 2);
   expect_one_line_error(value, "noise");
 }
 
 TEST(Cli, MissingFolderAndListExitThree) {
   const fs::path dir = temp_dir("missing");
-  const CliResult missing = run_cli("replay " + quote((dir / "nope").string()), dir);
+  const CliRun missing = run_aoscan("replay " + quote((dir / "nope").string()), dir);
   EXPECT_EQ(missing.exit_code, 3);
   expect_one_line_error(missing, (dir / "nope").string());
 
   fs::create_directories(dir / "empty");
-  const CliResult no_list = run_cli("replay " + quote((dir / "empty").string()), dir);
+  const CliRun no_list = run_aoscan("replay " + quote((dir / "empty").string()), dir);
   EXPECT_EQ(no_list.exit_code, 3);
   expect_one_line_error(no_list, "depth.txt");
 
   const fs::path rec = make_recording(dir);
   std::ofstream(rec / "depth.txt", std::ios::app) << "this line is garbled\n";
-  const CliResult garbled = run_cli("replay " + quote(rec.string()), dir);
+  const CliRun garbled = run_aoscan("replay " + quote(rec.string()), dir);
   EXPECT_EQ(garbled.exit_code, 3);
   expect_one_line_error(garbled, "depth.txt:");
 }
@@ -170,9 +142,8 @@ TEST(Cli, BadCameraJsonExitsThree) {
   };
   for (const auto& [name, text] : cases) {
     std::ofstream(rec / "camera.json", std::ios::trunc) << text;
-    const CliResult r = run_cli("replay " + quote(rec.string()) + " --out " +
-                                    quote((dir / ("o_" + name)).string()),
-                                dir);
+    const CliRun r = run_aoscan(
+        "replay " + quote(rec.string()) + " --out " + quote((dir / ("o_" + name)).string()), dir);
     EXPECT_EQ(r.exit_code, 3) << name << ": " << r.err;
     expect_one_line_error(r, "camera.json");
   }
@@ -192,14 +163,16 @@ TEST(Cli, BadFramesAreCountedSkipsOrStrictErrors) {
   write_png(pngs[6], 64, 48, PNG_FORMAT_RGB);            // colour
   write_png(pngs[8], 32, 24, PNG_FORMAT_LINEAR_Y);       // 16-bit but another size
   const fs::path out = dir / "out";
-  const CliResult r = run_cli("replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
+  const CliRun r =
+      run_aoscan("replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json stats = read_stats(out);
   EXPECT_EQ(stats["frames_corrupt"], 5);
   EXPECT_EQ(stats["frames_processed"], 5);
 
-  const CliResult strict =
-      run_cli("replay " + quote(rec.string()) + " --headless --strict --out " + quote((dir / "o2").string()), dir);
+  const CliRun strict = run_aoscan("replay " + quote(rec.string()) + " --headless --strict --out " +
+                                       quote((dir / "o2").string()),
+                                   dir);
   EXPECT_EQ(strict.exit_code, 3);
   expect_one_line_error(strict, pngs[1].filename().string());
   EXPECT_NE(strict.err.find("frame 1"), std::string::npos) << strict.err;
@@ -209,7 +182,8 @@ TEST(Cli, NoUsableFrameExitsThree) {
   const fs::path dir = temp_dir("nousable");
   const fs::path rec = make_recording(dir, 3);
   for (const auto& e : fs::directory_iterator(rec / "depth")) fs::resize_file(e.path(), 10);
-  const CliResult r = run_cli("replay " + quote(rec.string()) + " --headless --out " + quote((dir / "o").string()), dir);
+  const CliRun r = run_aoscan(
+      "replay " + quote(rec.string()) + " --headless --out " + quote((dir / "o").string()), dir);
   EXPECT_EQ(r.exit_code, 3);
   expect_one_line_error(r, "no usable frame");
 }
@@ -217,21 +191,22 @@ TEST(Cli, NoUsableFrameExitsThree) {
 TEST(Cli, RecordThenReplaySynthetic) {
   const fs::path dir = temp_dir("record");
   const fs::path rec = dir / "D";
-  const CliResult rec_r =
-      run_cli("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") + " " +
-                  quote(rec.string()),
-              dir);
+  const CliRun rec_r =
+      run_aoscan("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") +
+                     " " + quote(rec.string()),
+                 dir);
   ASSERT_EQ(rec_r.exit_code, 0) << rec_r.err;
   for (const char* f : {"depth.txt", "camera.json", "groundtruth.txt", "scene.ply"})
     EXPECT_TRUE(fs::exists(rec / f)) << f;
   const fs::path out = dir / "O";
-  const CliResult r = run_cli("replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
+  const CliRun r =
+      run_aoscan("replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json stats = read_stats(out);
   EXPECT_EQ(stats["frames_processed"], 60);
   EXPECT_EQ(stats["frames_read"], 60);
-  for (const char* key : {"frames_dropped", "frames_corrupt", "frames_tracking_lost", "wall_s", "fps",
-                          "export_s", "threads", "peak_rss_mb", "stages"})
+  for (const char* key : {"frames_dropped", "frames_corrupt", "frames_tracking_lost", "wall_s",
+                          "fps", "export_s", "threads", "peak_rss_mb", "stages"})
     EXPECT_TRUE(stats.contains(key)) << key;
   for (const auto& [name, stage] : stats["stages"].items())
     for (const char* key : {"ms_mean", "ms_p50", "ms_p95", "ms_max"})
@@ -240,37 +215,34 @@ TEST(Cli, RecordThenReplaySynthetic) {
 
   // A second recording of the same spec is byte-identical (deterministic synthesis).
   const fs::path rec2 = dir / "D2";
-  ASSERT_EQ(run_cli("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") +
-                        " " + quote(rec2.string()),
-                    dir)
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_aoscan("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") +
+                     " " + quote(rec2.string()),
+                 dir)
+          .exit_code,
+      0);
   for (const char* f : {"depth.txt", "groundtruth.txt", "depth/000059.png"})
     EXPECT_EQ(read_text(rec / f), read_text(rec2 / f)) << f;
   // Recording refuses to overwrite an existing recording.
-  EXPECT_EQ(run_cli("record synth:corner " + quote(rec.string()), dir).exit_code, 2);
+  EXPECT_EQ(run_aoscan("record synth:corner " + quote(rec.string()), dir).exit_code, 2);
 }
 
 TEST(Cli, SigintWritesOutputsAndExitsZero) {
   const fs::path dir = temp_dir("sigint");
   const fs::path out = dir / "out";
-  const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    freopen("/dev/null", "w", stderr);
-    execl(AOSCAN_BINARY, AOSCAN_BINARY, "replay", "synth:corner?frames=100000&width=160&height=120",
-          "--headless", "--out", out.c_str(), nullptr);
-    _exit(127);
-  }
+  AoscanProcess run("replay 'synth:corner?frames=100000&width=160&height=120' --headless --out " +
+                        quote(out.string()),
+                    dir);
+  ASSERT_TRUE(run.started());
   // Signal once the run is under way (stats of a run that processed frames), at most 30 s on.
   for (int i = 0; i < 300 && !fs::exists(out); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  kill(pid, SIGINT);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+  ASSERT_FALSE(run.poll()) << run.output().err;
+  kill(run.pid(), SIGINT);
+  const std::optional<int> code = run.wait_for(std::chrono::seconds(120));
+  ASSERT_TRUE(code) << "no exit after SIGINT";
+  EXPECT_EQ(*code, 0) << run.output().err;
   const nlohmann::json stats = read_stats(out);
   EXPECT_GT(stats["frames_processed"].get<int>(), 0);
   EXPECT_EQ(stats["frames_processed"], stats["frames_read"]);
@@ -285,7 +257,7 @@ TEST(Cli, ReplaysRedKitchen) {
 #else
   const int frames = 500;
 #endif
-  const CliResult r = run_cli("replay " + quote(data.string()) + " --headless --frames " +
+  const CliRun r = run_aoscan("replay " + quote(data.string()) + " --headless --frames " +
                                   std::to_string(frames) + " --out " + quote((dir / "o").string()),
                               dir);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -301,7 +273,7 @@ namespace {
 
 TEST(Readme, DocumentsEveryConfigurationKey) {
   const fs::path dir = temp_dir("readme");
-  const CliResult config = run_cli("config", dir);
+  const CliRun config = run_aoscan("config", dir);
   ASSERT_EQ(config.exit_code, 0);
   const std::string readme = read_text(fs::path(AOSCAN_SOURCE_DIR) / "README.md");
   std::istringstream lines(config.out);
@@ -328,7 +300,7 @@ TEST(Cli, ReplayIsDeterministicForTheSameThreads) {
   const fs::path dir = temp_dir("determinism");
   const std::string source = quote(std::string(AOSCAN_SOURCE_DIR) + "/recordings/corner");
   for (const char* run : {"a", "b"}) {
-    const CliResult r = run_cli("replay " + source + " --headless --threads 2 --frames 60 --out " +
+    const CliRun r = run_aoscan("replay " + source + " --headless --threads 2 --frames 60 --out " +
                                     quote((dir / run).string()),
                                 dir);
     ASSERT_EQ(r.exit_code, 0) << r.err;

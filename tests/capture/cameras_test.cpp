@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -239,7 +240,12 @@ TEST(FakenectChild, FramesEqualTheDumpThroughTheTableThenDeviceLost) {
   const auto& table = kinect_raw_to_mm_table();
   DepthFrame frame;
   for (std::size_t i = 0; i < index.size(); ++i) {
+    frame.arrived_at = {};
+    const auto before = std::chrono::steady_clock::now();
     ASSERT_TRUE(source->read(frame).is_ok()) << i;
+    // Stamped by libfreenect's callback, inside this read().
+    EXPECT_GE(frame.arrived_at, before) << i;
+    EXPECT_LE(frame.arrived_at, std::chrono::steady_clock::now()) << i;
     EXPECT_EQ(frame.sequence, i);
     EXPECT_NEAR(frame.timestamp_s, i / 30.0, 1e-6);
     ASSERT_EQ(frame.depth.width(), 640);
@@ -333,7 +339,11 @@ TEST(OpenNI2, DummyDriverStreamsLiveFramesWithDeviceTimestamps) {
   DepthFrame frame;
   double last_timestamp = -1.0;
   for (int i = 0; i < 3; ++i) {
+    frame.arrived_at = {};
+    const auto before = std::chrono::steady_clock::now();
     ASSERT_TRUE(source->read(frame).is_ok());
+    EXPECT_GE(frame.arrived_at, before);  // a live frame's arrival on the host, inside read()
+    EXPECT_LE(frame.arrived_at, std::chrono::steady_clock::now());
     EXPECT_EQ(frame.depth.width(), source->intrinsics().width);
     EXPECT_EQ(frame.depth.height(), source->intrinsics().height);
     EXPECT_TRUE(frame.intrinsics.valid());

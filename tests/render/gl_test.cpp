@@ -21,6 +21,7 @@
 #include "render/gl_window.h"
 #include "render/hud.h"
 #include "render/live_view.h"
+#include "render/private_xvfb.h"
 #include "render/render_test_util.h"
 
 namespace aoscan {
@@ -408,6 +409,81 @@ TEST(LiveViewNoDisplay, UnreachableDisplayFallsBack) {
   }
   EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kUnavailable);
   EXPECT_NE(r.message.find("GLFW"), std::string::npos) << r.message;
+}
+
+TEST(LiveViewDisplayLoss, ServerEndingMidRunEndsTheViewNotTheProcess) {
+  // Without our X I/O error handlers Xlib would call exit() inside the window thread here.
+  testing::PrivateXvfb x;
+  if (!x.running()) GTEST_SKIP() << "no private display: " << x.error();
+  const char* old = std::getenv("DISPLAY");
+  const std::string saved = old ? old : "";
+  ::setenv("DISPLAY", x.display().c_str(), 1);  // read only before the window exists
+  {
+    // As GlTest does: Mesa's libraries stay mapped after glfwTerminate() (LeakSanitizer).
+    std::string error;
+    WindowOptions hidden;
+    hidden.visible = false;
+    const std::unique_ptr<GlWindow> pin_window = create_window(hidden, error);
+    if (pin_window) pin_loaded_libraries();
+  }
+  auto frame = std::make_shared<ViewFrame>(testing::sphere_wall_frame(64, 48));
+  std::shared_ptr<const ViewFrame> published = frame;
+  ViewCommandQueue commands;
+  std::atomic<bool> stop{false};
+  LiveViewOptions options;
+  options.window.width = 320;
+  options.window.height = 240;
+  options.max_redraw_hz = 100;
+  LiveViewResult result;
+  std::atomic<int> feed_calls{0};
+  std::atomic<bool> finished{false};
+  std::thread render([&] {
+    result = run_live_view(
+        options,
+        [&] {
+          ++feed_calls;
+          return published;
+        },
+        commands, stop);
+    finished = true;
+  });
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (feed_calls.load() < 3 && !finished.load() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const bool was_drawing = feed_calls.load() >= 3 && !finished.load();
+  x.stop();  // while the view redraws
+  deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!finished.load() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const bool ended_by_itself = finished.load();
+  stop = true;  // (only if it did not end by itself)
+  render.join();
+  if (old) {
+    ::setenv("DISPLAY", saved.c_str(), 1);
+  } else {
+    ::unsetenv("DISPLAY");
+  }
+  if (!was_drawing && result.outcome == LiveViewResult::Outcome::kUnavailable)
+    GTEST_SKIP() << "no GL 3.3 on the private Xvfb: " << result.message;
+  ASSERT_TRUE(was_drawing) << result.message;
+  EXPECT_TRUE(ended_by_itself) << "the view kept running on a dead display";
+  EXPECT_EQ(result.outcome, LiveViewResult::Outcome::kDisplayLost) << result.message;
+  EXPECT_EQ(result.message, "the display " + x.display() + " closed");
+  EXPECT_GT(result.redraws, 0);
+  EXPECT_FALSE(commands.poll()) << "losing the display is not a quit";
+  EXPECT_FALSE(commands.quit_requested());
+
+  // GLFW was shut down cleanly: a window opens again on the original display, when there is one.
+  if (old && *old) {
+    std::string error;
+    WindowOptions hidden;
+    hidden.visible = false;
+    std::unique_ptr<GlWindow> again = create_window(hidden, error);
+    if (again) {
+      EXPECT_FALSE(again->display_lost());
+      EXPECT_FALSE(again->poll_events(0.0).display_lost);
+    }
+  }
 }
 
 TEST(Letterbox, KeepsAspectCentred) {
