@@ -60,7 +60,7 @@ constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
 struct FrameSetup {
   const PointMaps* maps;
   const SsaoPattern* pattern;
-  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m;
+  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -78,6 +78,7 @@ float fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
   const float rx = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
   const float ry = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
   const float r2eps = kAlchemyEpsilon * s.radius_m * s.radius_m;
+  const float bias_m = E == AoEstimator::kPaper ? 0.0f : s.bias * p.z();
   float sum = 0.0f;
   int counted = 0;
   for (int k = 0; k < count; ++k) {
@@ -89,7 +90,7 @@ float fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
     const Eigen::Vector3f v = q - p;
     const float d2 = v.squaredNorm();
     if (!(d2 > 0.0f)) continue;
-    const float nv = n.dot(v);
+    const float nv = n.dot(v) - bias_m;
     ++counted;
     if constexpr (E == AoEstimator::kAlchemy) {
       sum += s.radius_m * std::max(nv, 0.0f) / (d2 + r2eps);
@@ -251,17 +252,18 @@ float reference_pixel_ao(const FrameSetup& s, int x, int y) {
     const Eigen::Vector3f v = q - p;
     const float dist = v.norm();
     const float rho = smoothstep01(dist, s.t_max_m);
-    const float c = n.dot(v) / dist;  // cosine of the sample's elevation
+    const float height = n.dot(v) - s.bias * p.z();  // above the tangent plane, less the bias
+    const float c = height / dist;
     ++counted;
     switch (pat.estimator) {
       case AoEstimator::kPaper:  // Eq. 3-5
-        sum += rho * (1.0f - std::max(c, 0.0f));
+        sum += rho * (1.0f - std::max(n.dot(v) / dist, 0.0f));
         break;
       case AoEstimator::kObscurance:
         sum += std::max(c, 0.0f) * (1.0f - rho);
         break;
       case AoEstimator::kAlchemy:
-        sum += s.radius_m * std::max(n.dot(v), 0.0f) /
+        sum += s.radius_m * std::max(height, 0.0f) /
                (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
         break;
       case AoEstimator::kHorizon:
@@ -281,7 +283,8 @@ FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const A
                     static_cast<float>(config.radius_m),
                     static_cast<float>(config.t_max_m),
                     static_cast<float>(config.d_min_m),
-                    static_cast<float>(config.d_max_m)};
+                    static_cast<float>(config.d_max_m),
+                    static_cast<float>(config.bias)};
 }
 
 }  // namespace

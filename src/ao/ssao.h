@@ -11,10 +11,11 @@
 /// new directions (the MVAO grid averages them). A sample is the vertex at the nearest pixel;
 /// samples outside the image, at invalid pixels or on the centre pixel are not counted.
 ///
-/// Estimators (v = p_i - p, d = |v|, c = n.v / d, rho = smoothstep(0, t_max, d)):
-/// - paper:      AO = mean(rho * (1 - max(c, 0)))           (Eq. 3-5 as printed)
-/// - obscurance: AO = 1 - mean(max(c, 0) * (1 - rho))
-/// - alchemy:    AO = max(0, 1 - mean(r_s * max(n.v, 0) / (d^2 + eps r_s^2)))  (McGuire 2011)
+/// Estimators (v = p_i - p, d = |v|, c = n.v / d, rho = smoothstep(0, t_max, d), h = n.v - beta z
+/// the sample's height above the tangent plane less the depth-scaled bias beta = ao.bias):
+/// - paper:      AO = mean(rho * (1 - max(c, 0)))           (Eq. 3-5 as printed, no bias)
+/// - obscurance: AO = 1 - mean(max(h / d, 0) * (1 - rho))
+/// - alchemy:    AO = max(0, 1 - mean(r_s * max(h, 0) / (d^2 + eps r_s^2)))  (McGuire 2011)
 /// - horizon:    per slice, the highest horizon on each side (its cosine lowered toward the
 ///               tangent plane by rho, as XeGTAO's falloff), then the GTAO cosine-weighted arc
 ///               integral, averaged over slices.

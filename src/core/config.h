@@ -1,5 +1,6 @@
 /// @file config.h
-/// @brief Every tunable of aoscan: one struct per module, every field defaulted, units in the names.
+/// @brief Every tunable of aoscan: one struct per module, every field defaulted, units in the
+/// names.
 ///
 /// Each struct lists its fields once in `visit()`; loading (`--config`, `--set`), validation and
 /// printing are all driven by that list, so a new field needs one line. Defaults are the values of
@@ -63,13 +64,13 @@ struct PreprocessConfig {
 
 /// KinectFusion-style TSDF fusion.
 struct FusionConfig {
-  double voxel_size_m = 4.0 / 512.0;  ///< TSDF voxel edge (m)
+  double voxel_size_m = 4.0 / 512.0;        ///< TSDF voxel edge (m)
   double truncation_m = 4.5 * 4.0 / 512.0;  ///< TSDF truncation band (m)
-  double max_weight = 100.0;      ///< cap of the per-voxel running-average weight (observations)
-  int max_blocks = 131072;        ///< capacity of the sparse volume in 8^3 blocks (4 KiB each)
+  double max_weight = 100.0;         ///< cap of the per-voxel running-average weight (observations)
+  int max_blocks = 131072;           ///< capacity of the sparse volume in 8^3 blocks (4 KiB each)
   double raycast_min_depth_m = 0.2;  ///< raycast: nearest depth searched along a ray (m)
   double raycast_max_depth_m = 5.0;  ///< raycast: farthest depth searched along a ray (m)
-  double mesh_min_weight = 1.0;   ///< mesh: cubes with a corner of lower weight are not meshed
+  double mesh_min_weight = 1.0;      ///< mesh: cubes with a corner of lower weight are not meshed
   /// Resolution of the model raycast (the ICP reference and SSAO input) as a pyramid level of the
   /// depth frame: 0 = full, 1 = half (a quarter of the rays), 2 = quarter.
   int raycast_level = 1;
@@ -78,27 +79,25 @@ struct FusionConfig {
   void visit(V& v) {
     v.number("voxel_size_m", voxel_size_m, "TSDF voxel edge (m)", 1e-4, 1.0);
     v.number("truncation_m", truncation_m, "TSDF truncation distance (m)", 1e-4, 10.0);
-    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations)", 1.0,
-             1e6);
+    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations)", 1.0, 1e6);
     v.integer("max_blocks", max_blocks,
               "TSDF capacity in 8^3 voxel blocks of 4 KiB; reaching it is reported", 1, 1 << 24);
-    v.number("raycast_min_depth_m", raycast_min_depth_m, "raycast: nearest depth searched (m)",
-             0.0, 100.0);
+    v.number("raycast_min_depth_m", raycast_min_depth_m, "raycast: nearest depth searched (m)", 0.0,
+             100.0);
     v.number("raycast_max_depth_m", raycast_max_depth_m, "raycast: farthest depth searched (m)",
              0.01, 100.0);
     v.number("mesh_min_weight", mesh_min_weight,
              "mesh: cubes with a corner voxel of lower TSDF weight are dropped", 0.0, 1e6);
     v.integer("raycast_level", raycast_level,
-              "model raycast resolution as a pyramid level: 0 full, 1 half, 2 quarter", 0,
-              2);
+              "model raycast resolution as a pyramid level: 0 full, 1 half, 2 quarter", 0, 2);
   }
 };
 
 /// Frame-to-model projective point-to-plane ICP and the per-frame tracking status.
 struct TrackingConfig {
-  int iterations_level0 = 4;           ///< Gauss-Newton iterations at full resolution
-  int iterations_level1 = 5;           ///< ... at half resolution
-  int iterations_level2 = 10;          ///< ... at quarter resolution (done first)
+  int iterations_level0 = 4;   ///< Gauss-Newton iterations at full resolution
+  int iterations_level1 = 5;   ///< ... at half resolution
+  int iterations_level2 = 10;  ///< ... at quarter resolution (done first)
   /// Full resolution associates every n-th pixel of each row, staggered row to row (2 = a
   /// checkerboard, half the pixels); coarser levels use every pixel.
   int level0_pixel_step = 2;
@@ -113,10 +112,8 @@ struct TrackingConfig {
 
   template <class V>
   void visit(V& v) {
-    v.integer("iterations_level0", iterations_level0, "ICP iterations at full resolution", 0,
-              100);
-    v.integer("iterations_level1", iterations_level1, "ICP iterations at half resolution", 0,
-              100);
+    v.integer("iterations_level0", iterations_level0, "ICP iterations at full resolution", 0, 100);
+    v.integer("iterations_level1", iterations_level1, "ICP iterations at half resolution", 0, 100);
     v.integer("iterations_level2", iterations_level2, "ICP iterations at quarter resolution", 0,
               100);
     v.integer("level0_pixel_step", level0_pixel_step,
@@ -126,8 +123,7 @@ struct TrackingConfig {
              10.0);
     v.number("max_normal_angle_deg", max_normal_angle_deg,
              "ICP correspondence normal-angle rejection (degrees)", 0.0, 180.0);
-    v.number("huber_delta_m", huber_delta_m, "ICP Huber threshold of the residual (m)", 1e-5,
-             1.0);
+    v.number("huber_delta_m", huber_delta_m, "ICP Huber threshold of the residual (m)", 1e-5, 1.0);
     v.number("lost_inlier_ratio", lost_inlier_ratio,
              "tracking lost below this fraction of valid pixels matched", 0.0, 1.0);
     v.number("poor_inlier_ratio", poor_inlier_ratio,
@@ -154,16 +150,16 @@ enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon };
 
 /// Screen-space AO and the multi-view AO grid (paper 000 Sec. 4 and 6).
 struct AoConfig {
-  double radius_m = 0.1;      ///< r_s: radius of the sampling sphere (m)
-  double t_max_m = 0.2;       ///< t_max: falloff distance of rho (m)
+  double radius_m = 0.1;  ///< r_s: radius of the sampling sphere (m)
+  double t_max_m = 0.2;   ///< t_max: falloff distance of rho (m)
   /// N: samples per pixel. 16 (not the paper's 32): with stride 2 and MVAO the accumulated AO
   /// correlates equally with the ray-traced reference (corner, Pearson r 0.920 vs 0.921; 8 gives
   /// 0.921, but a single frame's r drops 0.911 -> 0.908 -> 0.905), at half the SSAO cost.
   int samples = 16;
-  double d_min_m = 0.4;       ///< w_d: minimum normalisation depth (m)
-  double d_max_m = 3.0;       ///< w_d: maximum normalisation depth (m)
-  int grid_resolution = 512;  ///< MVAO grid cells per axis over grid_extent_m
-  double grid_extent_m = 4.0; ///< MVAO grid: cell size = grid_extent_m / grid_resolution
+  double d_min_m = 0.4;        ///< w_d: minimum normalisation depth (m)
+  double d_max_m = 3.0;        ///< w_d: maximum normalisation depth (m)
+  int grid_resolution = 512;   ///< MVAO grid cells per axis over grid_extent_m
+  double grid_extent_m = 4.0;  ///< MVAO grid: cell size = grid_extent_m / grid_resolution
   AoIntegration integration = AoIntegration::kMvao;
   AoInput input = AoInput::kRaycast;
   /// SSAO estimator; alchemy correlates best with the ray-traced Eq. 1 reference (tests/ao/
@@ -173,6 +169,10 @@ struct AoConfig {
   /// (the block's pixel rotates with the frame index) and copies it to the block's other pixels
   /// with weight 0, so the MVAO grid only integrates evaluated pixels.
   int ssao_stride_px = 2;
+  /// Alchemy and obscurance estimators: a sample occludes only by its height above the tangent
+  /// plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth like
+  /// their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
+  double bias = 0.005;
 
   template <class V>
   void visit(V& v) {
@@ -182,17 +182,24 @@ struct AoConfig {
     v.number("d_min_m", d_min_m, "view weight w_d: minimum normalisation depth (m)", 0.0, 100.0);
     v.number("d_max_m", d_max_m, "view weight w_d: maximum normalisation depth (m)", 1e-3, 100.0);
     v.integer("grid_resolution", grid_resolution, "MVAO grid cells per grid_extent_m", 1, 1 << 20);
-    v.number("grid_extent_m", grid_extent_m, "MVAO grid: length covered by grid_resolution cells (m)",
-             1e-3, 1e4);
+    v.number("grid_extent_m", grid_extent_m,
+             "MVAO grid: length covered by grid_resolution cells (m)", 1e-3, 1e4);
     v.choice("integration", integration, "merge of SSAO over frames: mvao (w_d*w_n), mean, last",
-             {{"mvao", AoIntegration::kMvao}, {"mean", AoIntegration::kMean},
+             {{"mvao", AoIntegration::kMvao},
+              {"mean", AoIntegration::kMean},
               {"last", AoIntegration::kLast}});
     v.choice("input", input, "SSAO input: raycast of the model or raw filtered depth",
              {{"raycast", AoInput::kRaycast}, {"raw", AoInput::kRaw}});
     v.choice("estimator", estimator,
              "SSAO estimator: paper (Eq. 3-5 as printed), obscurance, alchemy, horizon",
-             {{"paper", AoEstimator::kPaper}, {"obscurance", AoEstimator::kObscurance},
-              {"alchemy", AoEstimator::kAlchemy}, {"horizon", AoEstimator::kHorizon}});
+             {{"paper", AoEstimator::kPaper},
+              {"obscurance", AoEstimator::kObscurance},
+              {"alchemy", AoEstimator::kAlchemy},
+              {"horizon", AoEstimator::kHorizon}});
+    v.number("bias", bias,
+             "SSAO alchemy/obscurance: a sample occludes only above the tangent plane by more "
+             "than bias * depth (m per m of depth)",
+             0.0, 1.0);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
   }

@@ -102,28 +102,55 @@ TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
   Pose T;
   const PointMaps maps = floor_wall_edge(&T);
   Image<float> ao, w;
-  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon}) {
-    compute_ssao(maps, config_for(e, 1), 3, ao, w);
-    double near_sum = 0.0, far_sum = 0.0;
-    int near_n = 0, far_n = 0;
-    float far_min = 1.0f;
-    for (int y = 0; y < ao.height(); ++y)
-      for (int x = 0; x < ao.width(); ++x) {
-        const Eigen::Vector3d p = T * maps.vertices(x, y).cast<double>();
-        const double dist_to_edge = std::hypot(p.x(), p.y());
-        if (dist_to_edge < 0.03) near_sum += ao(x, y), ++near_n;
-        if (dist_to_edge > 0.25)
-          far_sum += ao(x, y), ++far_n, far_min = std::min(far_min, ao(x, y));
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon})
+    for (double bias : {0.0, AoConfig{}.bias}) {
+      AoConfig config = config_for(e, 1);
+      config.bias = bias;
+      compute_ssao(maps, config, 3, ao, w);
+      double near_sum = 0.0, far_sum = 0.0;
+      int near_n = 0, far_n = 0;
+      float far_min = 1.0f;
+      for (int y = 0; y < ao.height(); ++y)
+        for (int x = 0; x < ao.width(); ++x) {
+          const Eigen::Vector3d p = T * maps.vertices(x, y).cast<double>();
+          const double dist_to_edge = std::hypot(p.x(), p.y());
+          if (dist_to_edge < 0.03) near_sum += ao(x, y), ++near_n;
+          if (dist_to_edge > 0.25)
+            far_sum += ao(x, y), ++far_n, far_min = std::min(far_min, ao(x, y));
+        }
+      ASSERT_GT(near_n, 100);
+      ASSERT_GT(far_n, 1000);
+      // The bias (6 mm at this depth) keeps the nearest samples on the wall from occluding.
+      EXPECT_LT(near_sum / near_n, bias > 0.0 ? 0.87 : 0.85) << static_cast<int>(e);
+      EXPECT_GT(far_sum / far_n, 0.98) << static_cast<int>(e);
+      // Obscurance: a sample on the other plane farther than t_max has rho = 1 and does not count
+      // (float rounding of n . v on the tilted planes leaves ~1e-6).
+      if (e == AoEstimator::kObscurance) {
+        EXPECT_GT(far_min, 1.0f - 1e-5f);
       }
-    ASSERT_GT(near_n, 100);
-    ASSERT_GT(far_n, 1000);
-    EXPECT_LT(near_sum / near_n, 0.85) << static_cast<int>(e);
-    EXPECT_GT(far_sum / far_n, 0.98) << static_cast<int>(e);
-    // Obscurance: a sample on the other plane farther than t_max has rho = 1 and does not count
-    // (float rounding of n . v on the tilted planes leaves ~1e-6).
-    if (e == AoEstimator::kObscurance) {
-      EXPECT_GT(far_min, 1.0f - 1e-5f);
     }
+}
+
+TEST(Ssao, BiasIgnoresBumpsLowerThanBiasTimesDepth) {
+  // The open wall at 1.2 m with a checkerboard of 4 mm bumps toward the camera (each vertex moved
+  // along its pixel ray): below the default bias of 0.005 * 1.2 m = 6 mm, so the point estimators
+  // see an open wall; without the bias the bumps occlude the pixels between them.
+  PointMaps maps = open_wall();
+  for (int y = 0; y < maps.vertices.height(); ++y)
+    for (int x = 0; x < maps.vertices.width(); ++x) {
+      Eigen::Vector3f& v = maps.vertices(x, y);
+      if (((x / 4) + (y / 4)) % 2 == 1) v *= (v.z() - 0.004f) / v.z();
+    }
+  Image<float> ao, w;
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy}) {
+    AoConfig config = config_for(e, 1);
+    ASSERT_EQ(config.bias, 0.005);
+    compute_ssao(maps, config, 0, ao, w);
+    for (int y = 0; y < ao.height(); ++y)
+      for (int x = 0; x < ao.width(); ++x) ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
+    config.bias = 0.0;
+    compute_ssao(maps, config, 0, ao, w);
+    EXPECT_LT(ao(160 + 2, 120 + 2), 0.99f) << static_cast<int>(e);  // a low square
   }
 }
 
