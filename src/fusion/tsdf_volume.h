@@ -104,9 +104,15 @@ class TsdfVolume {
   /// valid pixel's ray passes through, then updates every voxel of those blocks by projective
   /// TSDF (sdf = depth(pixel) - z_voxel along the optical axis, running average, weight capped).
   /// Multi-threaded over blocks through TBB; the result does not depend on the thread count.
+  /// The voxel update runs one voxel row per AVX2 vector when the CPU has AVX2.
   /// Throws usage_error when the depth size differs from the intrinsics.
   IntegrateStats integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
                            const Pose& T_world_camera);
+  /// integrate() without SIMD (the portable C++ voxel update): bit for bit the same volume as
+  /// integrate() on any CPU (the AVX2 update performs the same float operations in the same
+  /// order). For tests and CPUs without AVX2.
+  IntegrateStats integrate_portable(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                    const Pose& T_world_camera);
   /// Plain single-threaded reference of integrate(): the same allocation and blocks, each voxel
   /// projected by a full matrix product and two divisions. Agrees with integrate() up to the float
   /// rounding of the projection: a voxel projecting within rounding of a pixel border may read
@@ -160,15 +166,21 @@ class TsdfVolume {
   static constexpr int kChunkBits = 10;
   static constexpr int kChunkMask = (1 << kChunkBits) - 1;
 
-  /// Allocation pass shared by integrate() and integrate_reference(): fills visible_.
+  /// Allocation pass of integrate() and integrate_reference(): fills visible_. `fast` runs the
+  /// chunks in parallel and skips the traversal of segments whose cells are known (the same
+  /// blocks in the same order as the plain per-pixel traversal).
   IntegrateStats allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                               const Pose& T_world_camera, bool parallel);
+                               const Pose& T_world_camera, bool fast);
+  /// integrate() with the AVX2 voxel update (`simd`) or the portable one.
+  IntegrateStats integrate_fast(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                const Pose& T_world_camera, bool simd);
   /// update_block() with the voxel positions stepped affinely and one reciprocal per voxel:
   /// the same update up to float rounding of the projection (a voxel whose projection lies
-  /// within rounding of a pixel border may read the neighbouring pixel).
+  /// within rounding of a pixel border may read the neighbouring pixel). `simd`: one voxel row
+  /// per AVX2 vector (the caller checked the CPU), bit for bit the same result.
   void update_block_fast(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
                          const Eigen::Matrix3f& R_camera_world,
-                         const Eigen::Vector3f& t_camera_world);
+                         const Eigen::Vector3f& t_camera_world, bool simd);
   /// Updates the voxels of one block from the frame (the plain reference arithmetic).
   void update_block(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
                     const Eigen::Matrix3f& R_camera_world, const Eigen::Vector3f& t_camera_world);
@@ -187,6 +199,7 @@ class TsdfVolume {
 
   // Per-frame scratch, reused across calls.
   std::vector<std::vector<std::uint64_t>> chunk_keys_;
+  std::vector<int> chunk_rays_;
   std::vector<int> visible_;
 };
 
