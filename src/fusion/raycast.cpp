@@ -247,9 +247,9 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
     // Steps read the nearest voxel only (one cache line); trilinear samples are taken once a
     // sign change is bracketed.
     const Eigen::Vector3f g = ray.origin + s * ray.dir;
-    const int gx = static_cast<int>(std::floor(g.x() + 0.5f));
-    const int gy = static_cast<int>(std::floor(g.y() + 0.5f));
-    const int gz = static_cast<int>(std::floor(g.z() + 0.5f));
+    const int gx = floor_to_int(g.x() + 0.5f);
+    const int gy = floor_to_int(g.y() + 0.5f);
+    const int gz = floor_to_int(g.z() + 0.5f);
     const Voxel* v = sampler.voxel(gx, gy, gz);
     if (v == nullptr) {
       // Jump to where the ray leaves the region whose nearest voxel is in this unallocated

@@ -43,12 +43,6 @@ bool in_key_range(const Eigen::Vector3i& b) {
   return b.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord;
 }
 
-/// floor(v) for |v| < 2^31 (no library call, no rounding-mode change).
-inline int floor_to_int(float v) {
-  const int i = static_cast<int>(v);
-  return i - (static_cast<float>(i) > v ? 1 : 0);
-}
-
 /// The grid cell holding q (each coordinate within +-2^31).
 inline Eigen::Vector3i floor_cell(const Eigen::Vector3f& q) {
   return {floor_to_int(q.x()), floor_to_int(q.y()), floor_to_int(q.z())};

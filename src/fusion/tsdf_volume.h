@@ -40,6 +40,12 @@ inline int voxel_index(int x, int y, int z) {
   return x + kBlockSize * (y + kBlockSize * z);
 }
 
+/// floor(v) as an int for |v| < 2^31, without a library call or rounding-mode change.
+inline int floor_to_int(float v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<float>(i) > v ? 1 : 0);
+}
+
 /// What one integrate() call did.
 struct IntegrateStats {
   int rays = 0;              ///< valid depth pixels cast
@@ -247,9 +253,22 @@ class TsdfSampler {
   /// neighbours: 7 voxel reads, for kernels that cannot afford trilinear differences. False when
   /// a neighbour is unallocated or unobserved.
   bool nearest_gradient(const Eigen::Vector3f& g, Eigen::Vector3f& grad) {
-    const int x = static_cast<int>(std::floor(g.x() + 0.5f));
-    const int y = static_cast<int>(std::floor(g.y() + 0.5f));
-    const int z = static_cast<int>(std::floor(g.z() + 0.5f));
+    const int x = floor_to_int(g.x() + 0.5f);
+    const int y = floor_to_int(g.y() + 0.5f);
+    const int z = floor_to_int(g.z() + 0.5f);
+    if (((x + 1) & 7) >= 2 && ((y + 1) & 7) >= 2 && ((z + 1) & 7) >= 2) {
+      // All six neighbours in the voxel's own block (local coordinates 1..6).
+      const Voxel* c = voxel(x, y, z);
+      if (c == nullptr) return false;
+      constexpr int kStride[3] = {1, kBlockSize, kBlockSize * kBlockSize};
+      for (int axis = 0; axis < 3; ++axis) {
+        const Voxel& p = c[kStride[axis]];
+        const Voxel& m = c[-kStride[axis]];
+        if (!(p.weight > 0.0f) || !(m.weight > 0.0f)) return false;
+        grad[axis] = 0.5f * (p.tsdf - m.tsdf);
+      }
+      return true;
+    }
     const int d[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     for (int axis = 0; axis < 3; ++axis) {
       const Voxel* p = voxel(x + d[axis][0], y + d[axis][1], z + d[axis][2]);
@@ -279,8 +298,8 @@ class TsdfSampler {
   /// Reads the 8 voxels of the cell around g (corner i at offset (i & 1, (i >> 1) & 1, i >> 2))
   /// and the fractional position in it.
   bool cell(const Eigen::Vector3f& g, float* c, float* a, float min_weight) {
-    const float fx = std::floor(g.x()), fy = std::floor(g.y()), fz = std::floor(g.z());
-    const int x = static_cast<int>(fx), y = static_cast<int>(fy), z = static_cast<int>(fz);
+    const int x = floor_to_int(g.x()), y = floor_to_int(g.y()), z = floor_to_int(g.z());
+    const float fx = static_cast<float>(x), fy = static_cast<float>(y), fz = static_cast<float>(z);
     a[0] = g.x() - fx;
     a[1] = g.y() - fy;
     a[2] = g.z() - fz;

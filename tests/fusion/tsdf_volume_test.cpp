@@ -273,6 +273,19 @@ TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
   ASSERT_TRUE(sampler.gradient(Eigen::Vector3f(-1.0f, 0.2f, -0.3f), grad));
   EXPECT_NEAR(grad.x(), 0.01f, 1e-6f);
   EXPECT_NEAR(grad.y(), 0.0f, 1e-6f);
+  // Nearest-voxel central differences: inside a block (one lookup, direct offsets) and at a
+  // block border (neighbours in other blocks) give the same exact slope; a missing neighbour
+  // block gives none.
+  for (const Eigen::Vector3f& g :
+       {Eigen::Vector3f(-4.2f, -3.9f, -5.1f), Eigen::Vector3f(-0.4f, -0.3f, -1.0f),
+        Eigen::Vector3f(-1.0f, -7.2f, -4.0f)}) {
+    ASSERT_TRUE(sampler.nearest_gradient(g, grad)) << g.transpose();
+    EXPECT_NEAR(grad.x(), 0.01f, 1e-6f) << g.transpose();
+    EXPECT_EQ(grad.y(), 0.0f);
+    EXPECT_EQ(grad.z(), 0.0f);
+  }
+  EXPECT_FALSE(sampler.nearest_gradient(Eigen::Vector3f(7.2f, 0.0f, 0.0f), grad));
+  EXPECT_FALSE(sampler.nearest_gradient(Eigen::Vector3f(-8.4f, -4.0f, -4.0f), grad));
   ASSERT_NE(volume.find_voxel({-8, -8, -8}), nullptr);
   EXPECT_EQ(volume.find_voxel({8, 0, 0}), nullptr);
 }
