@@ -234,6 +234,30 @@ bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_wo
   return reach / volume.voxel_size_m() < static_cast<double>(1 << 23);
 }
 
+/// Looks for a + to - crossing of the trilinear field between depths s0 and s1 in steps of half
+/// a voxel; writes the hit and returns true when it finds one (and the hit has a normal).
+bool scan_crossing(TsdfSampler& sampler, const Ray& ray, float s0, float s1, float voxel_size,
+                   float truncation, const Eigen::Matrix3f& R_camera_world, RaycastResult& result,
+                   int x, int y) {
+  const float step = 0.5f * voxel_size / ray.metres_per_s;
+  float fa = 0.0f;
+  bool va = sampler.trilinear(ray.origin + s0 * ray.dir, fa);
+  float sa = s0;
+  for (float sb = s0 + step; sb < s1 + step; sb += step) {
+    float fb = 0.0f;
+    const bool vb = sampler.trilinear(ray.origin + sb * ray.dir, fb);
+    if (va && vb && fa >= 0.0f && fb < 0.0f) {
+      write_hit(sampler, ray, refine_crossing(sampler, ray, voxel_size, truncation, sa, fa, sb, fb),
+                R_camera_world, result, x, y);
+      return result.depth_m(x, y) > 0.0f;
+    }
+    sa = sb;
+    fa = fb;
+    va = vb;
+  }
+  return false;
+}
+
 /// Marches one ray from depth s to s_end; writes the pixel and returns true on a surface hit.
 bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float voxel_size,
            float truncation, const Eigen::Matrix3f& R_camera_world, RaycastResult& result, int x,
@@ -247,9 +271,9 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
     // Steps read the nearest voxel only (one cache line); trilinear samples are taken once a
     // sign change is bracketed.
     const Eigen::Vector3f g = ray.origin + s * ray.dir;
-    const int gx = static_cast<int>(std::floor(g.x() + 0.5f));
-    const int gy = static_cast<int>(std::floor(g.y() + 0.5f));
-    const int gz = static_cast<int>(std::floor(g.z() + 0.5f));
+    const int gx = floor_to_int(g.x() + 0.5f);
+    const int gy = floor_to_int(g.y() + 0.5f);
+    const int gz = floor_to_int(g.z() + 0.5f);
     const Voxel* v = sampler.voxel(gx, gy, gz);
     if (v == nullptr) {
       // Jump to where the ray leaves the region whose nearest voxel is in this unallocated
@@ -297,6 +321,12 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
         s += min_step;
         continue;
       }
+      // A trilinear cell at one end reaches unobserved voxels (the negative band behind a
+      // surface is only a truncation thick along the view that saw it): look for the crossing
+      // between the two samples in half-voxel steps.
+      if (scan_crossing(sampler, ray, prev_s, s, voxel_size, truncation, R_camera_world, result, x,
+                        y))
+        return true;
     }
     prev_s = s;
     prev_f = f;

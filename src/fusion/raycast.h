@@ -24,7 +24,8 @@ struct RaycastResult {
 /// fusion.raycast_min_depth_m and raycast_max_depth_m (depth along the optical axis). Each ray
 /// starts at the nearest allocated block seen through its 8x8-pixel tile, jumps over unallocated
 /// blocks, steps by the TSDF value inside blocks, and takes the first + to - zero crossing,
-/// refined by interpolating trilinear samples. Normals come from the TSDF gradient (central
+/// refined by interpolating trilinear samples (scanned in half-voxel steps when a trilinear cell
+/// reaches past the observed band). Normals come from the TSDF gradient (central
 /// differences around the voxel nearest to the hit). `result`'s
 /// buffers are reused. Multi-threaded over rows; the result does not depend on the thread count.
 /// `depth_hint_m` (optional, metres, same size): a depth image taken at this very pose, normally

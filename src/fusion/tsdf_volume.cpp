@@ -12,6 +12,13 @@
 
 #include "core/status.h"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#define AOSCAN_TSDF_X86 1
+#include <immintrin.h>
+#else
+#define AOSCAN_TSDF_X86 0
+#endif
+
 namespace aoscan {
 namespace {
 
@@ -36,16 +43,31 @@ bool in_key_range(const Eigen::Vector3i& b) {
   return b.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord;
 }
 
+/// The grid cell holding q (each coordinate within +-2^31).
+inline Eigen::Vector3i floor_cell(const Eigen::Vector3f& q) {
+  return {floor_to_int(q.x()), floor_to_int(q.y()), floor_to_int(q.z())};
+}
+
+/// Appends the key of block `b` to `out` unless it is out of the packable range or was among the
+/// recent keys that `cache` (direct-mapped, kKeyCacheBits slots) remembers.
+inline void emit_key(const Eigen::Vector3i& b, std::uint64_t* cache,
+                     std::vector<std::uint64_t>& out) {
+  if (!in_key_range(b)) return;
+  const std::uint64_t key = TsdfVolume::pack(b);
+  const std::size_t slot = (key * 0x9E3779B97F4A7C15ULL) >> (64 - kKeyCacheBits);
+  if (cache[slot] != key) {
+    cache[slot] = key;
+    out.push_back(key);
+  }
+}
+
 /// Block keys of the block-grid cells crossed by the segment a-b (block-grid units, where cell
 /// floor(q) is block q): Amanatides-Woo traversal, appended to `out` unless cached.
 void traverse_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b, std::uint64_t* cache,
                       std::vector<std::uint64_t>& out) {
   const Eigen::Vector3f dir = b - a;
-  Eigen::Vector3i cur(static_cast<int>(std::floor(a.x())), static_cast<int>(std::floor(a.y())),
-                      static_cast<int>(std::floor(a.z())));
-  const Eigen::Vector3i end(static_cast<int>(std::floor(b.x())),
-                            static_cast<int>(std::floor(b.y())),
-                            static_cast<int>(std::floor(b.z())));
+  Eigen::Vector3i cur = floor_cell(a);
+  const Eigen::Vector3i end = floor_cell(b);
   Eigen::Vector3i step;
   Eigen::Vector3f t_max, t_delta;
   for (int i = 0; i < 3; ++i) {
@@ -61,14 +83,7 @@ void traverse_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b, std::u
   }
   const int steps = (end - cur).cwiseAbs().sum();
   for (int n = 0;; ++n) {
-    if (in_key_range(cur)) {
-      const std::uint64_t key = TsdfVolume::pack(cur);
-      const std::size_t slot = (key * 0x9E3779B97F4A7C15ULL) >> (64 - kKeyCacheBits);
-      if (cache[slot] != key) {
-        cache[slot] = key;
-        out.push_back(key);
-      }
-    }
+    emit_key(cur, cache, out);
     if (n >= steps) break;
     int axis = 0;
     if (t_max[1] < t_max[axis]) axis = 1;
@@ -81,6 +96,130 @@ void traverse_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b, std::u
 bool valid_depth(float d) {
   return d > 0.0f && d < 1e4f;
 }
+
+/// One block's projection into the frame for the fast voxel update.
+struct BlockProjection {
+  Eigen::Vector3f p0;          ///< camera-frame position of the block's voxel (0, 0, 0) (m)
+  Eigen::Vector3f dx, dy, dz;  ///< camera-frame steps of one voxel along the block's axes (m)
+  float fx, fy, cx, cy;        ///< intrinsics; cx, cy shifted by half a pixel
+  int width;                   ///< depth image width (pixels)
+  float w_max, h_max;          ///< image size as floats
+  const float* depth;          ///< the depth image (m)
+  float truncation, inv_trunc, max_weight;
+};
+
+/// Camera-frame position of the first voxel of row (y, z) of a block.
+inline Eigen::Vector3f row_start(const BlockProjection& b, int y, int z) {
+  return b.p0 + static_cast<float>(y) * b.dy + static_cast<float>(z) * b.dz;
+}
+
+/// The fast voxel update in plain C++ (positions stepped affinely, one reciprocal per voxel).
+void update_block_portable(const BlockProjection& b, Voxel* voxels) {
+  for (int z = 0; z < kBlockSize; ++z) {
+    for (int y = 0; y < kBlockSize; ++y) {
+      const Eigen::Vector3f row = row_start(b, y, z);
+      // Pass 1, branch-free so that it vectorises: pixel index (-1 = outside the image or
+      // behind the camera) and depth of the row's 8 voxels.
+      int pixel[kBlockSize];
+      float depth_z[kBlockSize];
+      for (int x = 0; x < kBlockSize; ++x) {
+        const float px = row.x() + static_cast<float>(x) * b.dx.x();
+        const float py = row.y() + static_cast<float>(x) * b.dx.y();
+        const float pz = row.z() + static_cast<float>(x) * b.dx.z();
+        const float inv_z = 1.0f / pz;
+        const float u = b.fx * px * inv_z + b.cx;
+        const float v = b.fy * py * inv_z + b.cy;
+        const bool inside = pz > 0.0f && u >= 0.0f && v >= 0.0f && u < b.w_max && v < b.h_max;
+        const int ui = static_cast<int>(inside ? u : 0.0f);
+        const int vi = static_cast<int>(inside ? v : 0.0f);
+        pixel[x] = inside ? vi * b.width + ui : -1;
+        depth_z[x] = pz;
+      }
+      // Pass 2: read the depth and update the observed voxels.
+      Voxel* out = voxels + voxel_index(0, y, z);
+      for (int x = 0; x < kBlockSize; ++x) {
+        if (pixel[x] < 0) continue;
+        const float d = b.depth[pixel[x]];
+        if (!valid_depth(d)) continue;
+        const float sdf = d - depth_z[x];
+        if (sdf < -b.truncation) continue;
+        const float tsdf = std::min(1.0f, sdf * b.inv_trunc);
+        Voxel& voxel = out[x];
+        const float w = voxel.weight;
+        voxel.tsdf = (voxel.tsdf * w + tsdf) / (w + 1.0f);
+        voxel.weight = std::min(w + 1.0f, b.max_weight);
+      }
+    }
+  }
+}
+
+#if AOSCAN_TSDF_X86
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
+/// update_block_portable() with one voxel row (8 voxels) per AVX2 vector and a gather of the 8
+/// depths: the same operations in the same order, so bit for bit the same result (no FMA).
+__attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b, Voxel* voxels) {
+  static_assert(kBlockSize == 8 && sizeof(Voxel) == 8, "one row of voxels = two AVX registers");
+  // Voxels are interleaved (tsdf, weight); loading a row as two vectors and shuffling puts the
+  // voxels in the lane order 0 1 4 5 2 3 6 7, so every per-voxel vector uses that order too.
+  const __m256 lane_x = _mm256_setr_ps(0, 1, 4, 5, 2, 3, 6, 7);
+  const __m256 off_x = _mm256_mul_ps(lane_x, _mm256_set1_ps(b.dx.x()));
+  const __m256 off_y = _mm256_mul_ps(lane_x, _mm256_set1_ps(b.dx.y()));
+  const __m256 off_z = _mm256_mul_ps(lane_x, _mm256_set1_ps(b.dx.z()));
+  const __m256 fx = _mm256_set1_ps(b.fx), fy = _mm256_set1_ps(b.fy);
+  const __m256 cx = _mm256_set1_ps(b.cx), cy = _mm256_set1_ps(b.cy);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256 w_max = _mm256_set1_ps(b.w_max), h_max = _mm256_set1_ps(b.h_max);
+  const __m256 d_max = _mm256_set1_ps(1e4f);
+  const __m256 neg_trunc = _mm256_set1_ps(-b.truncation);
+  const __m256 inv_trunc = _mm256_set1_ps(b.inv_trunc);
+  const __m256 max_weight = _mm256_set1_ps(b.max_weight);
+  const __m256i width = _mm256_set1_epi32(b.width);
+  for (int z = 0; z < kBlockSize; ++z) {
+    for (int y = 0; y < kBlockSize; ++y) {
+      const Eigen::Vector3f row = row_start(b, y, z);
+      const __m256 px = _mm256_add_ps(_mm256_set1_ps(row.x()), off_x);
+      const __m256 py = _mm256_add_ps(_mm256_set1_ps(row.y()), off_y);
+      const __m256 pz = _mm256_add_ps(_mm256_set1_ps(row.z()), off_z);
+      const __m256 inv_z = _mm256_div_ps(one, pz);
+      const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, px), inv_z), cx);
+      const __m256 v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fy, py), inv_z), cy);
+      __m256 mask = _mm256_and_ps(
+          _mm256_cmp_ps(pz, zero, _CMP_GT_OQ),
+          _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)));
+      mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(u, w_max, _CMP_LT_OQ),
+                                               _mm256_cmp_ps(v, h_max, _CMP_LT_OQ)));
+      if (_mm256_movemask_ps(mask) == 0) continue;
+      // Lanes outside the image are masked off before any integer conversion is used.
+      const __m256 u_in = _mm256_and_ps(u, mask), v_in = _mm256_and_ps(v, mask);
+      const __m256i pixel = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(v_in), width),
+                                             _mm256_cvttps_epi32(u_in));
+      const __m256 d = _mm256_mask_i32gather_ps(zero, b.depth, pixel, mask, 4);
+      const __m256 sdf = _mm256_sub_ps(d, pz);
+      mask = _mm256_and_ps(mask, _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_GT_OQ),
+                                               _mm256_cmp_ps(d, d_max, _CMP_LT_OQ)));
+      mask = _mm256_and_ps(mask, _mm256_cmp_ps(sdf, neg_trunc, _CMP_NLT_UQ));
+      if (_mm256_movemask_ps(mask) == 0) continue;
+      const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf, inv_trunc), one);
+      float* out = &voxels[voxel_index(0, y, z)].tsdf;
+      const __m256 lo = _mm256_loadu_ps(out);      // t0 w0 t1 w1 | t2 w2 t3 w3
+      const __m256 hi = _mm256_loadu_ps(out + 8);  // t4 w4 t5 w5 | t6 w6 t7 w7
+      const __m256 t = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(2, 0, 2, 0));  // t0 t1 t4 t5 | ...
+      const __m256 w = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(3, 1, 3, 1));
+      const __m256 w1 = _mm256_add_ps(w, one);
+      const __m256 t_new = _mm256_div_ps(_mm256_add_ps(_mm256_mul_ps(t, w), tsdf), w1);
+      const __m256 w_new = _mm256_min_ps(w1, max_weight);
+      const __m256 t_out = _mm256_blendv_ps(t, t_new, mask);
+      const __m256 w_out = _mm256_blendv_ps(w, w_new, mask);
+      _mm256_storeu_ps(out, _mm256_unpacklo_ps(t_out, w_out));
+      _mm256_storeu_ps(out + 8, _mm256_unpackhi_ps(t_out, w_out));
+    }
+  }
+}
+#endif
 
 }  // namespace
 
@@ -193,7 +332,7 @@ std::size_t TsdfVolume::memory_bytes() const {
 }
 
 IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                                         const Pose& T_world_camera, bool parallel) {
+                                         const Pose& T_world_camera, bool fast) {
   IntegrateStats stats;
   visible_.clear();
   if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
@@ -207,7 +346,7 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
   ++frame_counter_;
   const int chunks = (depth_m.height() + kRowsPerChunk - 1) / kRowsPerChunk;
   chunk_keys_.resize(chunks);
-  std::vector<int> chunk_rays(chunks, 0);
+  chunk_rays_.assign(chunks, 0);
 
   const Eigen::Matrix3f R = T_world_camera.rotation().cast<float>();
   const Eigen::Vector3f t = T_world_camera.translation().cast<float>();
@@ -220,6 +359,8 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
   const float cx = static_cast<float>(intrinsics.cx);
   const float cy = static_cast<float>(intrinsics.cy);
   const float trunc = truncation_;
+  const Eigen::Vector3f x_dir = R.col(0) * to_grid;
+  const Eigen::Vector3f origin = t * to_grid + grid_offset;
 
   auto run_chunk = [&](int c) {
     std::vector<std::uint64_t>& keys = chunk_keys_[c];
@@ -228,26 +369,49 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
     std::fill(std::begin(cache), std::end(cache), BlockHashMap::kEmpty);
     int rays = 0;
     const int y_end = std::min(depth_m.height(), (c + 1) * kRowsPerChunk);
+    Eigen::Vector3i last_a = Eigen::Vector3i::Zero(), last_b = Eigen::Vector3i::Zero();
+    bool have_last = false;
     for (int y = c * kRowsPerChunk; y < y_end; ++y) {
       const float* row = depth_m.row(y);
       const float ry = (static_cast<float>(y) - cy) * fy_inv;
+      // The pixel's ray direction in block-grid units per metre of depth: row_dir + rx * x_dir.
+      const Eigen::Vector3f row_dir = (R.col(1) * ry + R.col(2)) * to_grid;
       for (int x = 0; x < depth_m.width(); ++x) {
         const float d = row[x];
         if (!valid_depth(d)) continue;
         ++rays;
-        const Eigen::Vector3f ray((static_cast<float>(x) - cx) * fx_inv, ry, 1.0f);
+        const float rx = (static_cast<float>(x) - cx) * fx_inv;
+        const Eigen::Vector3f dir = row_dir + rx * x_dir;
         const float z0 = std::max(d - trunc, 0.5f * d);
         const float z1 = d + trunc;
-        const Eigen::Vector3f a = (R * (ray * z0) + t) * to_grid + grid_offset;
-        const Eigen::Vector3f b = (R * (ray * z1) + t) * to_grid + grid_offset;
+        const Eigen::Vector3f a = dir * z0 + origin;
+        const Eigen::Vector3f b = dir * z1 + origin;
         constexpr float kLimit = static_cast<float>(kMaxBlockCoord);
         if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
-        traverse_segment(a, b, cache, keys);
+        if (!fast) {
+          traverse_segment(a, b, cache, keys);
+          continue;
+        }
+        // Fast path, the same blocks: a segment whose end cells are equal or face neighbours
+        // crosses exactly those cells, in that order; when they equal the previous pixel's such
+        // pair, every key was just emitted.
+        const Eigen::Vector3i ia = floor_cell(a), ib = floor_cell(b);
+        if ((ib - ia).cwiseAbs().sum() > 1) {
+          traverse_segment(a, b, cache, keys);
+          have_last = false;
+          continue;
+        }
+        if (have_last && ia == last_a && ib == last_b) continue;
+        emit_key(ia, cache, keys);
+        if (ib != ia) emit_key(ib, cache, keys);
+        last_a = ia;
+        last_b = ib;
+        have_last = true;
       }
     }
-    chunk_rays[c] = rays;
+    chunk_rays_[c] = rays;
   };
-  if (parallel) {
+  if (fast) {
     tbb::parallel_for(0, chunks, run_chunk);
   } else {
     for (int c = 0; c < chunks; ++c) run_chunk(c);
@@ -255,7 +419,7 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
 
   // Serial merge in chunk order: block indices and the visible list are deterministic.
   for (int c = 0; c < chunks; ++c) {
-    stats.rays += chunk_rays[c];
+    stats.rays += chunk_rays_[c];
     for (const std::uint64_t key : chunk_keys_[c]) {
       int index = map_.find(key);
       if (index < 0) {
@@ -318,66 +482,57 @@ void TsdfVolume::update_block(int index, const Image<float>& depth_m, const Intr
 void TsdfVolume::update_block_fast(int index, const Image<float>& depth_m,
                                    const Intrinsics& intrinsics,
                                    const Eigen::Matrix3f& R_camera_world,
-                                   const Eigen::Vector3f& t_camera_world) {
-  VoxelBlock& blk = block(index);
+                                   const Eigen::Vector3f& t_camera_world, bool simd) {
   // The camera-frame position is affine in the voxel's local coordinates: p = p0 + x dx + y dy +
   // z dz, so a voxel costs three multiply-adds and one reciprocal instead of a matrix product and
   // two divisions.
-  const Eigen::Vector3f p0 =
+  BlockProjection b;
+  b.p0 =
       R_camera_world * ((coords_[index] * kBlockSize).cast<float>() * voxel_size_) + t_camera_world;
-  const Eigen::Vector3f dx = R_camera_world.col(0) * voxel_size_;
-  const Eigen::Vector3f dy = R_camera_world.col(1) * voxel_size_;
-  const Eigen::Vector3f dz = R_camera_world.col(2) * voxel_size_;
-  const float fx = static_cast<float>(intrinsics.fx);
-  const float fy = static_cast<float>(intrinsics.fy);
-  const float cx = static_cast<float>(intrinsics.cx) + 0.5f;
-  const float cy = static_cast<float>(intrinsics.cy) + 0.5f;
-  const int width = depth_m.width();
-  const float w_max = static_cast<float>(width);
-  const float h_max = static_cast<float>(depth_m.height());
-  const float* depth = depth_m.data();
-  const float inv_trunc = 1.0f / truncation_;
-  for (int z = 0; z < kBlockSize; ++z) {
-    for (int y = 0; y < kBlockSize; ++y) {
-      const Eigen::Vector3f row = p0 + static_cast<float>(y) * dy + static_cast<float>(z) * dz;
-      // Pass 1, branch-free so that it vectorises: pixel index (-1 = outside the image or
-      // behind the camera) and depth of the row's 8 voxels.
-      int pixel[kBlockSize];
-      float depth_z[kBlockSize];
-      for (int x = 0; x < kBlockSize; ++x) {
-        const float px = row.x() + static_cast<float>(x) * dx.x();
-        const float py = row.y() + static_cast<float>(x) * dx.y();
-        const float pz = row.z() + static_cast<float>(x) * dx.z();
-        const float inv_z = 1.0f / pz;
-        // Shifted by half a pixel: the nearest pixel is the integer part.
-        const float u = fx * px * inv_z + cx;
-        const float v = fy * py * inv_z + cy;
-        const bool inside = pz > 0.0f && u >= 0.0f && v >= 0.0f && u < w_max && v < h_max;
-        const int ui = static_cast<int>(inside ? u : 0.0f);
-        const int vi = static_cast<int>(inside ? v : 0.0f);
-        pixel[x] = inside ? vi * width + ui : -1;
-        depth_z[x] = pz;
-      }
-      // Pass 2: read the depth and update the observed voxels.
-      Voxel* out = &blk.voxels[voxel_index(0, y, z)];
-      for (int x = 0; x < kBlockSize; ++x) {
-        if (pixel[x] < 0) continue;
-        const float d = depth[pixel[x]];
-        if (!valid_depth(d)) continue;
-        const float sdf = d - depth_z[x];
-        if (sdf < -truncation_) continue;
-        const float tsdf = std::min(1.0f, sdf * inv_trunc);
-        Voxel& voxel = out[x];
-        const float w = voxel.weight;
-        voxel.tsdf = (voxel.tsdf * w + tsdf) / (w + 1.0f);
-        voxel.weight = std::min(w + 1.0f, max_weight_);
-      }
-    }
+  b.dx = R_camera_world.col(0) * voxel_size_;
+  b.dy = R_camera_world.col(1) * voxel_size_;
+  b.dz = R_camera_world.col(2) * voxel_size_;
+  b.fx = static_cast<float>(intrinsics.fx);
+  b.fy = static_cast<float>(intrinsics.fy);
+  // Shifted by half a pixel: the nearest pixel is the integer part.
+  b.cx = static_cast<float>(intrinsics.cx) + 0.5f;
+  b.cy = static_cast<float>(intrinsics.cy) + 0.5f;
+  b.width = depth_m.width();
+  b.w_max = static_cast<float>(depth_m.width());
+  b.h_max = static_cast<float>(depth_m.height());
+  b.depth = depth_m.data();
+  b.truncation = truncation_;
+  b.inv_trunc = 1.0f / truncation_;
+  b.max_weight = max_weight_;
+  Voxel* voxels = block(index).voxels.data();
+#if AOSCAN_TSDF_X86
+  if (simd) {
+    update_block_avx2(b, voxels);
+    return;
   }
+#else
+  (void)simd;
+#endif
+  update_block_portable(b, voxels);
 }
 
 IntegrateStats TsdfVolume::integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
                                      const Pose& T_world_camera) {
+#if AOSCAN_TSDF_X86
+  return integrate_fast(depth_m, intrinsics, T_world_camera, cpu_has_avx2());
+#else
+  return integrate_fast(depth_m, intrinsics, T_world_camera, false);
+#endif
+}
+
+IntegrateStats TsdfVolume::integrate_portable(const Image<float>& depth_m,
+                                              const Intrinsics& intrinsics,
+                                              const Pose& T_world_camera) {
+  return integrate_fast(depth_m, intrinsics, T_world_camera, false);
+}
+
+IntegrateStats TsdfVolume::integrate_fast(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                          const Pose& T_world_camera, bool simd) {
   IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, true);
   if (stats.skipped) return stats;
   const Pose T_camera_world = T_world_camera.inverse();
@@ -386,7 +541,7 @@ IntegrateStats TsdfVolume::integrate(const Image<float>& depth_m, const Intrinsi
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visible_.size(), 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t i = range.begin(); i != range.end(); ++i)
-                        update_block_fast(visible_[i], depth_m, intrinsics, R, t);
+                        update_block_fast(visible_[i], depth_m, intrinsics, R, t, simd);
                     });
   return stats;
 }

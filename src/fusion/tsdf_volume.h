@@ -40,6 +40,12 @@ inline int voxel_index(int x, int y, int z) {
   return x + kBlockSize * (y + kBlockSize * z);
 }
 
+/// floor(v) as an int for |v| < 2^31, without a library call or rounding-mode change.
+inline int floor_to_int(float v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<float>(i) > v ? 1 : 0);
+}
+
 /// What one integrate() call did.
 struct IntegrateStats {
   int rays = 0;              ///< valid depth pixels cast
@@ -104,9 +110,15 @@ class TsdfVolume {
   /// valid pixel's ray passes through, then updates every voxel of those blocks by projective
   /// TSDF (sdf = depth(pixel) - z_voxel along the optical axis, running average, weight capped).
   /// Multi-threaded over blocks through TBB; the result does not depend on the thread count.
+  /// The voxel update runs one voxel row per AVX2 vector when the CPU has AVX2.
   /// Throws usage_error when the depth size differs from the intrinsics.
   IntegrateStats integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
                            const Pose& T_world_camera);
+  /// integrate() without SIMD (the portable C++ voxel update): bit for bit the same volume as
+  /// integrate() on any CPU (the AVX2 update performs the same float operations in the same
+  /// order). For tests and CPUs without AVX2.
+  IntegrateStats integrate_portable(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                    const Pose& T_world_camera);
   /// Plain single-threaded reference of integrate(): the same allocation and blocks, each voxel
   /// projected by a full matrix product and two divisions. Agrees with integrate() up to the float
   /// rounding of the projection: a voxel projecting within rounding of a pixel border may read
@@ -160,15 +172,21 @@ class TsdfVolume {
   static constexpr int kChunkBits = 10;
   static constexpr int kChunkMask = (1 << kChunkBits) - 1;
 
-  /// Allocation pass shared by integrate() and integrate_reference(): fills visible_.
+  /// Allocation pass of integrate() and integrate_reference(): fills visible_. `fast` runs the
+  /// chunks in parallel and skips the traversal of segments whose cells are known (the same
+  /// blocks in the same order as the plain per-pixel traversal).
   IntegrateStats allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                               const Pose& T_world_camera, bool parallel);
+                               const Pose& T_world_camera, bool fast);
+  /// integrate() with the AVX2 voxel update (`simd`) or the portable one.
+  IntegrateStats integrate_fast(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                const Pose& T_world_camera, bool simd);
   /// update_block() with the voxel positions stepped affinely and one reciprocal per voxel:
   /// the same update up to float rounding of the projection (a voxel whose projection lies
-  /// within rounding of a pixel border may read the neighbouring pixel).
+  /// within rounding of a pixel border may read the neighbouring pixel). `simd`: one voxel row
+  /// per AVX2 vector (the caller checked the CPU), bit for bit the same result.
   void update_block_fast(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
                          const Eigen::Matrix3f& R_camera_world,
-                         const Eigen::Vector3f& t_camera_world);
+                         const Eigen::Vector3f& t_camera_world, bool simd);
   /// Updates the voxels of one block from the frame (the plain reference arithmetic).
   void update_block(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
                     const Eigen::Matrix3f& R_camera_world, const Eigen::Vector3f& t_camera_world);
@@ -187,6 +205,7 @@ class TsdfVolume {
 
   // Per-frame scratch, reused across calls.
   std::vector<std::vector<std::uint64_t>> chunk_keys_;
+  std::vector<int> chunk_rays_;
   std::vector<int> visible_;
 };
 
@@ -234,9 +253,22 @@ class TsdfSampler {
   /// neighbours: 7 voxel reads, for kernels that cannot afford trilinear differences. False when
   /// a neighbour is unallocated or unobserved.
   bool nearest_gradient(const Eigen::Vector3f& g, Eigen::Vector3f& grad) {
-    const int x = static_cast<int>(std::floor(g.x() + 0.5f));
-    const int y = static_cast<int>(std::floor(g.y() + 0.5f));
-    const int z = static_cast<int>(std::floor(g.z() + 0.5f));
+    const int x = floor_to_int(g.x() + 0.5f);
+    const int y = floor_to_int(g.y() + 0.5f);
+    const int z = floor_to_int(g.z() + 0.5f);
+    if (((x + 1) & 7) >= 2 && ((y + 1) & 7) >= 2 && ((z + 1) & 7) >= 2) {
+      // All six neighbours in the voxel's own block (local coordinates 1..6).
+      const Voxel* c = voxel(x, y, z);
+      if (c == nullptr) return false;
+      constexpr int kStride[3] = {1, kBlockSize, kBlockSize * kBlockSize};
+      for (int axis = 0; axis < 3; ++axis) {
+        const Voxel& p = c[kStride[axis]];
+        const Voxel& m = c[-kStride[axis]];
+        if (!(p.weight > 0.0f) || !(m.weight > 0.0f)) return false;
+        grad[axis] = 0.5f * (p.tsdf - m.tsdf);
+      }
+      return true;
+    }
     const int d[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     for (int axis = 0; axis < 3; ++axis) {
       const Voxel* p = voxel(x + d[axis][0], y + d[axis][1], z + d[axis][2]);
@@ -266,8 +298,8 @@ class TsdfSampler {
   /// Reads the 8 voxels of the cell around g (corner i at offset (i & 1, (i >> 1) & 1, i >> 2))
   /// and the fractional position in it.
   bool cell(const Eigen::Vector3f& g, float* c, float* a, float min_weight) {
-    const float fx = std::floor(g.x()), fy = std::floor(g.y()), fz = std::floor(g.z());
-    const int x = static_cast<int>(fx), y = static_cast<int>(fy), z = static_cast<int>(fz);
+    const int x = floor_to_int(g.x()), y = floor_to_int(g.y()), z = floor_to_int(g.z());
+    const float fx = static_cast<float>(x), fy = static_cast<float>(y), fz = static_cast<float>(z);
     a[0] = g.x() - fx;
     a[1] = g.y() - fy;
     a[2] = g.z() - fz;
