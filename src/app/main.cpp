@@ -39,8 +39,7 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
       ->check(CLI::ExistingFile);
   cmd.add_option("--set", args.sets, "override one configuration key: KEY=VALUE (repeatable)")
       ->allow_extra_args(false);
-  cmd.add_option("--frames", args.max_frames, "process at most N frames")
-      ->check(CLI::PositiveNumber);
+  cmd.add_option("--frames", args.max_frames, "process at most N frames")->check(CLI::PositiveNumber);
   cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
       ->check(CLI::PositiveNumber);
   cmd.add_flag("--headless", args.headless,
@@ -77,9 +76,8 @@ int report(ExitCode code, const std::string& message) {
 }
 
 int run(int argc, char** argv) {
-  CLI::App app{
-      "aoscan: real-time depth capture, KinectFusion-style fusion and multi-view "
-      "ambient occlusion"};
+  CLI::App app{"aoscan: real-time depth capture, KinectFusion-style fusion and multi-view "
+               "ambient occlusion"};
   app.set_version_flag("--version", "aoscan " AOSCAN_VERSION);
   app.require_subcommand(1);
   std::string log_level = "warn";
@@ -87,27 +85,21 @@ int run(int argc, char** argv) {
       ->capture_default_str();
 
   RunArgs replay_args;
-  CLI::App* replay =
-      app.add_subcommand("replay", "run the whole pipeline on a recording or synth: scene");
-  replay
-      ->add_option("SOURCE", replay_args.source, "TUM-layout folder or synth:NAME[?key=value&...]")
-      ->required();
+  CLI::App* replay = app.add_subcommand("replay", "run the whole pipeline on a recording or synth: scene");
+  replay->add_option("SOURCE", replay_args.source,
+                     "TUM-layout folder or synth:NAME[?key=value&...]")->required();
   add_run_options(*replay, replay_args);
 
   RunArgs scan_args;
   scan_args.source = "auto";
   CLI::App* scan = app.add_subcommand("scan", "run the whole pipeline on a live camera");
-  scan->add_option("--device", scan_args.source,
-                   "camera URI (openni2[:URI], freenect[:INDEX], "
-                   "v4l2:/dev/videoN) or auto")
-      ->capture_default_str();
+  scan->add_option("--device", scan_args.source, "camera URI (openni2[:URI], freenect[:INDEX], "
+                                                 "v4l2:/dev/videoN) or auto")->capture_default_str();
   add_run_options(*scan, scan_args);
 
   RecordArgs record_args;
-  CLI::App* record =
-      app.add_subcommand("record", "write any source to a TUM-layout recording folder");
-  record->add_option("SOURCE", record_args.source, "recording folder, synth: scene or camera")
-      ->required();
+  CLI::App* record = app.add_subcommand("record", "write any source to a TUM-layout recording folder");
+  record->add_option("SOURCE", record_args.source, "recording folder, synth: scene or camera")->required();
   record->add_option("DIR", record_args.dir, "recording folder to create")->required();
   record->add_option("--frames", record_args.max_frames, "record at most N frames")
       ->check(CLI::PositiveNumber);
@@ -115,8 +107,7 @@ int run(int argc, char** argv) {
   CLI::App* devices = app.add_subcommand("devices", "list the depth cameras this machine can see");
 
   RunArgs config_args;
-  CLI::App* config =
-      app.add_subcommand("config", "print the effective configuration with every key");
+  CLI::App* config = app.add_subcommand("config", "print the effective configuration with every key");
   config->add_option("--config", config_args.config_file, "configuration file (YAML or JSON)")
       ->check(CLI::ExistingFile);
   config->add_option("--set", config_args.sets, "override one configuration key: KEY=VALUE");
@@ -158,6 +149,4 @@ int run(int argc, char** argv) {
 }  // namespace
 }  // namespace aoscan
 
-int main(int argc, char** argv) {
-  return aoscan::run(argc, argv);
-}
+int main(int argc, char** argv) { return aoscan::run(argc, argv); }
