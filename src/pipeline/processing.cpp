@@ -129,7 +129,7 @@ Processing::ExportStats Processing::write_outputs(const std::string& out_dir) co
 
 VdbWriteStats Processing::write_volume(const std::string& out_dir) const {
   return aoscan::write_volume((std::filesystem::path(out_dir) / "volume.vdb").string(),
-                              reconstruction_.volume());
+                              reconstruction_.volume(), &config_.fusion);
 }
 
 }  // namespace aoscan

@@ -13,11 +13,14 @@ namespace aoscan {
 static_assert(kBrickSize == kBlockSize && kBrickVoxels == kBlockVoxels,
               "a TSDF block must be exactly one volume.vdb brick");
 
-VolumeView volume_view(const TsdfVolume& volume) {
+VolumeView volume_view(const TsdfVolume& volume, const FusionConfig* config) {
   auto order = std::make_shared<const std::vector<int>>(volume.sorted_block_indices());
   VolumeView view;
-  view.voxel_size_m = volume.voxel_size_m();
-  view.truncation_m = volume.truncation_m();
+  const bool same = config != nullptr &&
+                    static_cast<float>(config->voxel_size_m) == volume.voxel_size_m() &&
+                    static_cast<float>(config->truncation_m) == volume.truncation_m();
+  view.voxel_size_m = same ? config->voxel_size_m : volume.voxel_size_m();
+  view.truncation_m = same ? config->truncation_m : volume.truncation_m();
   view.brick_count = order->size();
   const float truncation = volume.truncation_m();
   view.brick = [&volume, order, truncation](std::size_t i, VolumeBrick& brick) {
@@ -32,8 +35,9 @@ VolumeView volume_view(const TsdfVolume& volume) {
   return view;
 }
 
-VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume) {
-  return write_volume_vdb(path, volume_view(volume));
+VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume,
+                           const FusionConfig* config) {
+  return write_volume_vdb(path, volume_view(volume, config));
 }
 
 void load_volume(const VolumeData& data, TsdfVolume& volume) {

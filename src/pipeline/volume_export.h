@@ -12,13 +12,16 @@ namespace aoscan {
 
 /// A view of `volume`'s allocated blocks in block-coordinate order: brick origin = 8 * block
 /// coordinates, sdf_m = voxel tsdf * truncation (m), weight as stored. Valid while `volume`
-/// lives and is not written.
-VolumeView volume_view(const TsdfVolume& volume);
+/// lives and is not written. The view's voxel size and truncation are `config`'s (in double
+/// precision; the volume holds them as float) when `config` is the volume's configuration, else
+/// the volume's.
+VolumeView volume_view(const TsdfVolume& volume, const FusionConfig* config = nullptr);
 
 /// Writes `volume` to `path` (usually OUT/volume.vdb) with write_volume_vdb(): grids `tsdf` and
-/// `weight`, voxel size and world frame of the volume (= trajectory.txt's). Throws like
-/// write_volume_vdb().
-VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume);
+/// `weight`, voxel size (fusion.voxel_size_m of `config`, see volume_view()) and world frame of the
+/// volume (= trajectory.txt's). Throws like write_volume_vdb().
+VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume,
+                           const FusionConfig* config = nullptr);
 
 /// Replaces the content of `volume` by `data` (read_volume_vdb()): one block per brick, voxel
 /// tsdf = sdf_m / truncation of `volume` (equal to the written value up to one float rounding),

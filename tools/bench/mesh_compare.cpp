@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -34,17 +35,24 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-/// Median of `repeat` runs of f (ms); the last run's result stays in f's captures.
-template <class F>
-double median_ms(int repeat, F f) {
-  std::vector<double> times;
-  for (int i = 0; i < repeat; ++i) {
-    const auto start = Clock::now();
-    f();
-    times.push_back(ms_since(start));
+/// Runs every step once per round for `repeat` rounds (so that a change of machine load hits all
+/// steps alike) and returns each step's median time (ms). A step's last result stays in its
+/// captures.
+std::vector<double> median_ms(int repeat, const std::vector<std::function<void()>>& steps) {
+  std::vector<std::vector<double>> times(steps.size());
+  for (int r = 0; r < repeat; ++r) {
+    for (std::size_t s = 0; s < steps.size(); ++s) {
+      const auto start = Clock::now();
+      steps[s]();
+      times[s].push_back(ms_since(start));
+    }
   }
-  std::sort(times.begin(), times.end());
-  return times[times.size() / 2];
+  std::vector<double> medians;
+  for (std::vector<double>& t : times) {
+    std::sort(t.begin(), t.end());
+    medians.push_back(t[t.size() / 2]);
+  }
+  return medians;
 }
 
 /// The cells that aoscan's marching cubes meshes: voxel v when v and its 7 neighbours towards +x,
@@ -163,9 +171,6 @@ int run(int argc, char** argv) {
     fusion.max_blocks = std::max<int>(fusion.max_blocks, static_cast<int>(data.bricks.size()));
     TsdfVolume volume(fusion);
     load_volume(data, volume);
-    TriangleMesh ours;
-    const double ours_ms = median_ms(repeat, [&] { ours = extract_mesh(volume, min_weight); });
-
     // OpenVDB: the grids as read from the file, the same cells through a surface mask.
     openvdb::initialize();
     openvdb::io::File file(volume_path);
@@ -173,30 +178,35 @@ int run(int argc, char** argv) {
     const auto tsdf = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
     const auto weight = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("weight"));
     file.close();
+
+    TriangleMesh ours, vdb, vdb_unmasked;
     std::pair<openvdb::FloatGrid::Ptr, openvdb::FloatGrid::Ptr> in_memory;
-    const double grids_ms = median_ms(repeat, [&] { in_memory = to_grids(volume); });
+    openvdb::BoolGrid::Ptr mask;
+    const std::vector<double> ms = median_ms(
+        repeat,
+        {[&] { ours = extract_mesh(volume, min_weight); }, [&] { in_memory = to_grids(volume); },
+         [&] { mask = observed_cells(*weight, min_weight); },
+         [&] {
+           openvdb::tools::VolumeToMesh mesher(/*isovalue=*/0.0, /*adaptivity=*/0.0);
+           mesher.setSurfaceMask(mask);
+           mesher(*tsdf);
+           vdb = to_triangle_mesh(mesher);
+         },
+         [&] { add_face_normals(vdb); },
+         [&] {
+           openvdb::tools::VolumeToMesh mesher(0.0, 0.0);
+           mesher(*tsdf);
+           vdb_unmasked = to_triangle_mesh(mesher);
+         }});
+    const double ours_ms = ms[0], grids_ms = ms[1], mask_ms = ms[2], vdb_ms = ms[3],
+                 normals_ms = ms[4], vdb_unmasked_ms = ms[5];
     if (in_memory.first->activeVoxelCount() != tsdf->activeVoxelCount())
       throw Error(ExitCode::kFailure, "in-memory grids differ from " + volume_path);
-    openvdb::BoolGrid::Ptr mask;
-    const double mask_ms = median_ms(repeat, [&] { mask = observed_cells(*weight, min_weight); });
-    TriangleMesh vdb, vdb_unmasked;
-    const double vdb_ms = median_ms(repeat, [&] {
-      openvdb::tools::VolumeToMesh mesher(/*isovalue=*/0.0, /*adaptivity=*/0.0);
-      mesher.setSurfaceMask(mask);
-      mesher(*tsdf);
-      vdb = to_triangle_mesh(mesher);
-    });
-    const double normals_ms = median_ms(repeat, [&] { add_face_normals(vdb); });
-    const double vdb_unmasked_ms = median_ms(repeat, [&] {
-      openvdb::tools::VolumeToMesh mesher(0.0, 0.0);
-      mesher(*tsdf);
-      vdb_unmasked = to_triangle_mesh(mesher);
-    });
 
     std::printf("volume       %s: %zu bricks, %lld observed voxels, voxel %.4f m\n",
                 volume_path.c_str(), data.bricks.size(),
                 static_cast<long long>(tsdf->activeVoxelCount()), data.voxel_size_m);
-    std::printf("threads      %d (TBB), median of %d runs\n",
+    std::printf("threads      %d (TBB), median of %d rounds\n",
                 static_cast<int>(tbb::global_control::active_value(
                     tbb::global_control::max_allowed_parallelism)),
                 repeat);
