@@ -193,10 +193,8 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   }
   j["stages"] = stages;
   const TimingSummary latency = r.pipeline.capture_latency.summary();
-  j["capture_latency_ms"] = {{"mean", latency.ms_mean},
-                             {"p50", latency.ms_p50},
-                             {"p95", latency.ms_p95},
-                             {"max", latency.ms_max}};
+  j["capture_latency_ms"] = {{"mean", latency.ms_mean}, {"p50", latency.ms_p50},
+                             {"p95", latency.ms_p95}, {"max", latency.ms_max}};
   j["mesh"] = {{"vertices", r.mesh_vertices},
                {"faces", r.mesh_faces},
                {"ao_unobserved_vertices", r.ao_unobserved_vertices}};
