@@ -25,6 +25,7 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
   options.realtime = args.realtime;
   options.strict = args.strict;
   options.show_progress = !args.no_progress;
+  options.save_volume = args.save_volume;
   options.live_view = !args.headless;  // falls back to headless with one warning
   options.snapshot_dir = args.snapshot_dir;
   options.snapshot_every = args.snapshot_every;

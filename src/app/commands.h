@@ -24,6 +24,7 @@ struct RunArgs {
   bool realtime = false;
   bool strict = false;
   bool no_progress = false;
+  bool save_volume = false;         ///< --save-volume: also write OUT/volume.vdb
   bool live = false;                ///< scan: a live camera is required
   std::string snapshot_dir;         ///< --snapshot: CPU-composited PNGs of the views go here
   std::size_t snapshot_every = 30;  ///< --snapshot-every: every N-th fused frame (and the last)

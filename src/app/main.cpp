@@ -49,6 +49,10 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
                "pace replay by the recorded timestamps, dropping frames like a live camera");
   cmd.add_flag("--strict", args.strict, "an unreadable frame is an error (exit 3), not a skip");
   cmd.add_flag("--no-progress", args.no_progress, "no progress line on stderr");
+  cmd.add_flag("--save-volume", args.save_volume,
+               "also write the TSDF to OUT/volume.vdb: OpenVDB float grids 'tsdf' (signed "
+               "distance, m) and 'weight', voxel size fusion.voxel_size_m, trajectory.txt's world "
+               "frame");
   CLI::Option* snapshot =
       cmd.add_option("--snapshot", args.snapshot_dir,
                      "write PNGs of the views (shaded, ssao, normals, depth, orbit) to DIR; "

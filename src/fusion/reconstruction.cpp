@@ -38,6 +38,14 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.integrate = volume_.integrate(frame.depth_m, intrinsics, step.T_world_camera);
     step.integrated = true;
   }
+  if (step.new_model && volume_.block_count() == 0) {
+    // Nothing fused (no valid depth): nothing to track the next frame against. The model starts
+    // with the first frame that has depth.
+    step.status = TrackingStatus::kLost;
+    step.integrated = false;
+    ++frames_lost_;
+    return step;
+  }
   T_world_last_ = step.T_world_camera;
   // The model is raycast at a pyramid level of the frame; a frame just fused at this pose is the
   // depth hint (its pyramid depth at that level has exactly the raycast's pixel grid).

@@ -9,6 +9,7 @@
 #include "core/log.h"
 #include "io/ply.h"
 #include "pipeline/view_products.h"
+#include "pipeline/volume_export.h"
 
 namespace aoscan {
 
@@ -124,6 +125,11 @@ Processing::ExportStats Processing::write_outputs(const std::string& out_dir) co
   const std::size_t unobserved = apply_grid_ao(grid_, *mesh);
   write_ply((dir / "mesh.ply").string(), *mesh);
   return {mesh->vertices.size(), mesh->faces.size(), unobserved, mesh};
+}
+
+VdbWriteStats Processing::write_volume(const std::string& out_dir) const {
+  return aoscan::write_volume((std::filesystem::path(out_dir) / "volume.vdb").string(),
+                              reconstruction_.volume(), &config_.fusion);
 }
 
 }  // namespace aoscan

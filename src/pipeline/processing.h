@@ -15,6 +15,7 @@
 #include "core/mesh.h"
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
+#include "io/vdb.h"
 #include "pipeline/frame_pool.h"
 #include "pipeline/pipeline.h"
 
@@ -59,6 +60,9 @@ class Processing {
     std::shared_ptr<const TriangleMesh> mesh;  ///< the mesh written, with its AO
   };
   ExportStats write_outputs(const std::string& out_dir) const;
+  /// Writes the TSDF as `out_dir`/volume.vdb (see pipeline/volume_export.h; read after the chain
+  /// has stopped). Throws Error (exit code 1) naming the file when it cannot be written.
+  VdbWriteStats write_volume(const std::string& out_dir) const;
 
  private:
   Status preprocess(FrameWork& frame) const;

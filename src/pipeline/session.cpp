@@ -6,8 +6,10 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -213,6 +215,12 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["tsdf"] = {{"blocks", r.tsdf_blocks},
                {"memory_mb", r.tsdf_memory_mb},
                {"capacity_reached", r.tsdf_capacity_reached}};
+  if (r.volume_requested)
+    j["volume"] = {{"written", r.volume_written},
+                   {"bricks", r.volume_bricks},
+                   {"active_voxels", r.volume_active_voxels},
+                   {"bytes", r.volume_bytes},
+                   {"export_s", r.volume_export_s}};
   j["snapshot_files"] = r.snapshot_files;
   j["model_resets"] = r.model_resets;
   j["outputs_written_on_request"] = r.outputs_written_on_request;
@@ -238,6 +246,13 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   std::filesystem::create_directories(options.out_dir, ec);
   if (ec || !std::filesystem::is_directory(options.out_dir))
     throw usage_error("--out " + options.out_dir + ": cannot create folder: " + ec.message());
+  if (options.save_volume) {  // fail now, not after the whole run
+    const std::filesystem::path vdb = std::filesystem::path(options.out_dir) / "volume.vdb";
+    std::ofstream probe(vdb, std::ios::binary | std::ios::app);
+    if (!probe)
+      throw usage_error("--out " + options.out_dir + ": cannot write " + vdb.string() + ": " +
+                        std::strerror(errno));
+  }
 
   const int threads = options.threads > 0
                           ? options.threads
@@ -318,10 +333,27 @@ SessionResult run_session(Source& source, const SessionOptions& options,
 
   const auto export_start = Clock::now();
   const Processing::ExportStats exported = processing.write_outputs(options.out_dir);
-  result.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
   result.mesh_vertices = exported.mesh_vertices;
   result.mesh_faces = exported.mesh_faces;
   result.ao_unobserved_vertices = exported.ao_unobserved_vertices;
+  result.volume_requested = options.save_volume;
+  if (options.save_volume) {
+    const auto volume_start = Clock::now();
+    try {
+      const VdbWriteStats written = processing.write_volume(options.out_dir);
+      result.volume_written = true;
+      result.volume_bricks = written.bricks;
+      result.volume_active_voxels = written.active_voxels;
+      result.volume_bytes = written.file_bytes;
+    } catch (const Error& e) {  // mesh.ply and trajectory.txt are out: still write stats.json
+      if (result.exit_code == ExitCode::kOk) {
+        result.exit_code = e.code();
+        result.error = e.what();
+      }
+    }
+    result.volume_export_s = std::chrono::duration<double>(Clock::now() - volume_start).count();
+  }
+  result.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
   result.grid_cells = processing.grid().cell_count();
   result.grid_points_out_of_range = processing.grid().points_out_of_range();
   if (result.grid_points_out_of_range > 0)

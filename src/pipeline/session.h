@@ -22,6 +22,9 @@ struct SessionOptions {
   bool realtime = false;
   bool strict = false;
   bool show_progress = false;  ///< a progress line on stderr (when it is a terminal)
+  /// Also write the TSDF as out_dir/volume.vdb (OpenVDB float grids `tsdf` and `weight`). Checked
+  /// before the run: an out_dir where volume.vdb cannot be created is a usage error.
+  bool save_volume = false;
 
   /// Open the live view on its own thread. When no window can be made (no display, GL too old,
   /// shader failure) one warning line is logged and the run goes on headless.
@@ -47,8 +50,14 @@ struct SessionResult {
   std::size_t tsdf_blocks = 0;
   double tsdf_memory_mb = 0.0;
   bool tsdf_capacity_reached = false;
-  std::size_t snapshot_files = 0;              ///< PNGs written by --snapshot
-  std::size_t model_resets = 0;                ///< `r` commands carried out
+  bool volume_requested = false;         ///< --save-volume was given
+  bool volume_written = false;           ///< --save-volume: volume.vdb was written
+  std::size_t volume_bricks = 0;         ///< its 8^3 bricks (OpenVDB leaves) with observed voxels
+  std::size_t volume_active_voxels = 0;  ///< its observed voxels
+  std::uintmax_t volume_bytes = 0;       ///< its size
+  double volume_export_s = 0.0;          ///< time to write it (also part of export_s)
+  std::size_t snapshot_files = 0;        ///< PNGs written by --snapshot
+  std::size_t model_resets = 0;          ///< `r` commands carried out
   std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
   bool quit_by_user = false;                   ///< `q`, Esc or the window closed
   bool live_view_shown = false;                ///< a window was open during the run
@@ -57,8 +66,10 @@ struct SessionResult {
 
 /// Runs `source` through the chain (plus a "view" stage when a window or snapshots are wanted),
 /// then writes trajectory.txt, mesh.ply and stats.json into options.out_dir — also when the run
-/// stopped on an error, a signal or the user's quit, so nothing already fused is lost. Throws
-/// Error only when the output or snapshot folder cannot be created.
+/// stopped on an error, a signal or the user's quit, so nothing already fused is lost. With
+/// save_volume, volume.vdb is written after mesh.ply; when that fails the run ends with that
+/// error (exit code 1) but stats.json is still written. Throws Error only when the output or
+/// snapshot folder (or, with save_volume, volume.vdb in it) cannot be created.
 SessionResult run_session(Source& source, const SessionOptions& options,
                           const std::atomic<bool>& stop_requested);
 

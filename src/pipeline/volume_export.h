@@ -1,0 +1,32 @@
+/// @file volume_export.h
+/// @brief The TSDF volume as volume.vdb and back: the adapter between fusion's TsdfVolume and
+/// io's neutral brick view (io must not depend on fusion).
+#pragma once
+
+#include <string>
+
+#include "fusion/tsdf_volume.h"
+#include "io/vdb.h"
+
+namespace aoscan {
+
+/// A view of `volume`'s allocated blocks in block-coordinate order: brick origin = 8 * block
+/// coordinates, sdf_m = voxel tsdf * truncation (m), weight as stored. Valid while `volume`
+/// lives and is not written. The view's voxel size and truncation are `config`'s (in double
+/// precision; the volume holds them as float) when `config` is the volume's configuration, else
+/// the volume's.
+VolumeView volume_view(const TsdfVolume& volume, const FusionConfig* config = nullptr);
+
+/// Writes `volume` to `path` (usually OUT/volume.vdb) with write_volume_vdb(): grids `tsdf` and
+/// `weight`, voxel size (fusion.voxel_size_m of `config`, see volume_view()) and world frame of the
+/// volume (= trajectory.txt's). Throws like write_volume_vdb().
+VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume,
+                           const FusionConfig* config = nullptr);
+
+/// Replaces the content of `volume` by `data` (read_volume_vdb()): one block per brick, voxel
+/// tsdf = sdf_m / truncation of `volume` (equal to the written value up to one float rounding),
+/// weight as read. Throws usage_error when the voxel sizes differ by more than 1e-6 relative or
+/// the capacity (fusion.max_blocks) is too small.
+void load_volume(const VolumeData& data, TsdfVolume& volume);
+
+}  // namespace aoscan

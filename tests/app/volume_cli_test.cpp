@@ -1,0 +1,149 @@
+// End-to-end tests of `--save-volume` through the aoscan executable: volume.vdb as OpenVDB reads
+// it, determinism, the voxel size option and one-line errors for an unusable output path.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/Count.h>
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string err;
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_volume_cli_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string quote(const std::string& s) {
+  return "'" + s + "'";
+}
+
+CliResult run_cli(const std::string& args, const fs::path& scratch) {
+  const fs::path err = scratch / "stderr.txt";
+  const std::string cmd = std::string(AOSCAN_BINARY) + " " + args + " > /dev/null 2> " +
+                          quote(err.string()) + " < /dev/null";
+  const int status = std::system(cmd.c_str());
+  CliResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.err = read_text(err);
+  return r;
+}
+
+/// A short synthetic recording (12 frames of 80x60 with Kinect noise).
+fs::path make_recording(const fs::path& dir) {
+  const fs::path rec = dir / "rec";
+  const CliResult r =
+      run_cli("record " + quote("synth:corner?frames=12&width=80&height=60&noise=kinect") + " " +
+                  quote(rec.string()),
+              dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return rec;
+}
+
+std::string replay_args(const fs::path& rec, const fs::path& out) {
+  return "replay " + quote(rec.string()) + " --headless --no-progress --threads 2 --out " +
+         quote(out.string());
+}
+
+TEST(VolumeCli, ReplayWritesAVolumeOpenVdbReads) {
+  const fs::path dir = temp_dir("replay");
+  const fs::path rec = make_recording(dir);
+  const fs::path out = dir / "out";
+  const CliResult r = run_cli(replay_args(rec, out) + " --save-volume", dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json stats = nlohmann::json::parse(read_text(out / "stats.json"));
+  ASSERT_TRUE(stats.contains("volume"));
+  EXPECT_EQ(stats["volume"]["written"], true);
+
+  openvdb::initialize();
+  openvdb::io::File file((out / "volume.vdb").string());
+  file.open();
+  ASSERT_TRUE(file.hasGrid("tsdf"));
+  ASSERT_TRUE(file.hasGrid("weight"));
+  const auto tsdf = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
+  const auto weight = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("weight"));
+  file.close();
+  ASSERT_TRUE(tsdf && weight);
+  EXPECT_EQ(tsdf->getGridClass(), openvdb::GRID_LEVEL_SET);
+  EXPECT_DOUBLE_EQ(tsdf->voxelSize()[0], 4.0 / 512.0);  // fusion.voxel_size_m's default
+  EXPECT_EQ(tsdf->activeVoxelCount(), weight->activeVoxelCount());
+  EXPECT_EQ(static_cast<std::size_t>(tsdf->activeVoxelCount()),
+            stats["volume"]["active_voxels"].get<std::size_t>());
+  // The surface lies in front of the first camera (world = the first frame's camera frame):
+  // some observed voxels are negative (behind the surface), every weight is positive.
+  const openvdb::math::MinMax<float> sdf = openvdb::tools::minMax(tsdf->tree());
+  EXPECT_LT(sdf.min(), 0.0f);
+  EXPECT_GT(sdf.max(), 0.0f);
+  EXPECT_GE(openvdb::tools::minMax(weight->tree()).min(), 1.0f);
+
+  // Same input, same threads: the same bytes.
+  const fs::path again = dir / "again";
+  ASSERT_EQ(run_cli(replay_args(rec, again) + " --save-volume", dir).exit_code, 0);
+  EXPECT_EQ(read_text(out / "volume.vdb"), read_text(again / "volume.vdb"));
+
+  // The voxel size follows fusion.voxel_size_m.
+  const fs::path coarse = dir / "coarse";
+  ASSERT_EQ(
+      run_cli(replay_args(rec, coarse) +
+                  " --save-volume --set fusion.voxel_size_m=0.02 --set fusion.truncation_m=0.08",
+              dir)
+          .exit_code,
+      0);
+  openvdb::io::File coarse_file((coarse / "volume.vdb").string());
+  coarse_file.open();
+  EXPECT_DOUBLE_EQ(coarse_file.readGrid("tsdf")->voxelSize()[0], 0.02);
+  coarse_file.close();
+}
+
+/// Exactly one line on stderr, starting with "aoscan: error:" and naming `needle`.
+void expect_one_line_error(const CliResult& r, const std::string& needle) {
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+  EXPECT_EQ(r.err.rfind("aoscan: error: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+}
+
+TEST(VolumeCli, UnusableOutputPathExitsTwoWithOneLine) {
+  const fs::path dir = temp_dir("bad_out");
+  const fs::path rec = make_recording(dir);
+  // --out under a regular file.
+  std::ofstream(dir / "file") << "x";
+  CliResult r = run_cli(replay_args(rec, dir / "file" / "sub") + " --save-volume", dir);
+  EXPECT_EQ(r.exit_code, 2);
+  expect_one_line_error(r, "--out");
+  // A folder named volume.vdb in the way: refused before the run, nothing written.
+  const fs::path out = dir / "out";
+  fs::create_directories(out / "volume.vdb");
+  r = run_cli(replay_args(rec, out) + " --save-volume", dir);
+  EXPECT_EQ(r.exit_code, 2);
+  expect_one_line_error(r, "volume.vdb");
+  EXPECT_FALSE(fs::exists(out / "mesh.ply"));
+  // Without --save-volume the same folder is fine.
+  r = run_cli(replay_args(rec, out), dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+}  // namespace

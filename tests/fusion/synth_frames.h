@@ -1,0 +1,40 @@
+/// @file synth_frames.h
+/// @brief Frames of the synthetic corner orbit rendered on demand, with their exact poses, for
+/// tests that build their own frame sequences (gaps, jumps, edited frames).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <utility>
+
+#include "capture/synth_source.h"
+#include "core/depth_frame.h"
+
+namespace aoscan::test {
+
+/// Frame `index` of the corner orbit (seed 3, 30 fps) at 320x240 with exact depth: the checks
+/// are about bad input, not sensor noise. Rendered once, on demand (not thread-safe).
+inline const DepthFrame& corner_frame(int index) {
+  static std::map<int, DepthFrame> cache;
+  auto it = cache.find(index);
+  if (it != cache.end()) return it->second;
+  static const AnalyticScene scene = AnalyticScene::make("corner");
+  SynthParams params;
+  params.width = 320;
+  params.height = 240;
+  DepthFrame frame;
+  frame.intrinsics = params.intrinsics();
+  frame.depth_scale = kSynthDepthScale;
+  frame.timestamp_s = index / params.fps;
+  frame.sequence = static_cast<std::uint64_t>(index);
+  frame.origin = "corner frame " + std::to_string(index);
+  frame.T_world_camera_gt =
+      synth_camera_pose("corner", SynthTrajectory::kOrbit, 3, frame.timestamp_s);
+  SynthRenderOptions options;
+  options.frame_index = frame.sequence;
+  render_synth_depth(scene, frame.intrinsics, *frame.T_world_camera_gt, options, frame.depth);
+  return cache.emplace(index, std::move(frame)).first->second;
+}
+
+}  // namespace aoscan::test

@@ -1,0 +1,171 @@
+// Tests for src/pipeline/volume_export.cpp and the session's save_volume: a fused analytic plane
+// written to volume.vdb and read back by OpenVDB with exact voxel values, the round trip into a
+// TsdfVolume, and the session's outputs and errors.
+#include "pipeline/volume_export.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <nlohmann/json.hpp>
+
+#include "capture/synth_source.h"
+#include "core/status.h"
+#include "fusion/marching_cubes.h"
+#include "fusion/test_scenes.h"
+#include "pipeline/session.h"
+
+namespace aoscan {
+namespace {
+
+namespace fs = std::filesystem;
+
+const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
+constexpr double kPlaneDepthM = 1.0;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_vdb_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// A fronto-parallel plane at kPlaneDepthM fused once from the identity pose.
+TsdfVolume fused_plane() {
+  TsdfVolume volume{FusionConfig{}};
+  test::Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0, 0, 1), kPlaneDepthM});
+  Image<float> depth;
+  test::render(scene, kKinect, Pose::identity(), depth);
+  volume.integrate(depth, kKinect, Pose::identity());
+  return volume;
+}
+
+TEST(VolumeExport, FusedPlaneHasExactVoxelsInOpenVdb) {
+  const TsdfVolume volume = fused_plane();
+  const fs::path dir = fresh_dir("plane");
+  const std::string path = (dir / "volume.vdb").string();
+  const VdbWriteStats stats = write_volume(path, volume);
+
+  openvdb::initialize();
+  openvdb::io::File file(path);
+  file.open();
+  const auto tsdf = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("tsdf"));
+  const auto weight = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("weight"));
+  file.close();
+  ASSERT_TRUE(tsdf && weight);
+  EXPECT_DOUBLE_EQ(tsdf->voxelSize()[0], FusionConfig{}.voxel_size_m);
+  EXPECT_FLOAT_EQ(tsdf->background(), volume.truncation_m());
+
+  // Every observed voxel of the volume is active in the file with the same values, and nothing
+  // else is.
+  const float truncation = volume.truncation_m();
+  std::size_t observed = 0, checked_band = 0;
+  const auto t = tsdf->getConstAccessor();
+  const auto w = weight->getConstAccessor();
+  for (int b = 0; b < volume.block_count(); ++b) {
+    const Eigen::Vector3i base = volume.block_coord(b) * kBlockSize;
+    for (int z = 0; z < kBlockSize; ++z)
+      for (int y = 0; y < kBlockSize; ++y)
+        for (int x = 0; x < kBlockSize; ++x) {
+          const Voxel& v = volume.block(b).voxels[voxel_index(x, y, z)];
+          const Eigen::Vector3i g = base + Eigen::Vector3i(x, y, z);
+          const openvdb::Coord c(g.x(), g.y(), g.z());
+          ASSERT_EQ(t.isValueOn(c), v.weight > 0.0f) << c;
+          if (v.weight <= 0.0f) continue;
+          ++observed;
+          EXPECT_EQ(t.getValue(c), v.tsdf * truncation) << c;
+          EXPECT_EQ(w.getValue(c), 1.0f) << c;  // one frame
+          // The analytic projective distance of a frontal plane: depth - z, capped at +truncation.
+          const openvdb::Vec3d p = tsdf->indexToWorld(c);
+          const double expected = std::min<double>(truncation, kPlaneDepthM - p.z());
+          EXPECT_NEAR(t.getValue(c), expected, 2e-6) << c;
+          if (std::abs(kPlaneDepthM - p.z()) < truncation) ++checked_band;
+        }
+  }
+  EXPECT_EQ(static_cast<std::size_t>(tsdf->activeVoxelCount()), observed);
+  EXPECT_EQ(stats.active_voxels, observed);
+  EXPECT_GT(checked_band, 100000u);
+}
+
+TEST(VolumeExport, ReadBackVolumeMeshesLikeTheOriginal) {
+  const TsdfVolume volume = fused_plane();
+  const fs::path dir = fresh_dir("roundtrip");
+  const std::string path = (dir / "volume.vdb").string();
+  write_volume(path, volume);
+  TsdfVolume loaded{FusionConfig{}};
+  load_volume(read_volume_vdb(path), loaded);
+  const TriangleMesh a = extract_mesh(volume, 1.0f);
+  const TriangleMesh b = extract_mesh(loaded, 1.0f);
+  ASSERT_GT(a.faces.size(), 1000u);
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  ASSERT_EQ(a.faces, b.faces);
+  float worst = 0.0f;
+  for (std::size_t i = 0; i < a.vertices.size(); ++i)
+    worst = std::max(worst, (a.vertices[i] - b.vertices[i]).cwiseAbs().maxCoeff());
+  EXPECT_LT(worst, 1e-6f);  // tsdf * truncation / truncation: one float rounding at most
+
+  FusionConfig other;
+  other.voxel_size_m = 0.01;
+  TsdfVolume wrong_size{other};
+  EXPECT_THROW(load_volume(read_volume_vdb(path), wrong_size), Error);
+  FusionConfig tiny;
+  tiny.max_blocks = 1;
+  TsdfVolume too_small{tiny};
+  EXPECT_THROW(load_volume(read_volume_vdb(path), too_small), Error);
+}
+
+TEST(VolumeExport, SessionWritesVolumeAndStats) {
+  std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=4&width=80&height=60");
+  SessionOptions options;
+  options.out_dir = fresh_dir("session").string();
+  options.threads = 1;
+  options.save_volume = true;
+  std::atomic<bool> stop{false};
+  const SessionResult r = run_session(*source, options, stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_TRUE(r.volume_written);
+  EXPECT_GT(r.volume_active_voxels, 1000u);
+  std::ifstream in(fs::path(options.out_dir) / "stats.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["volume"]["written"], true);
+  EXPECT_EQ(j["volume"]["active_voxels"].get<std::size_t>(), r.volume_active_voxels);
+  EXPECT_EQ(j["volume"]["bytes"].get<std::uintmax_t>(),
+            fs::file_size(fs::path(options.out_dir) / "volume.vdb"));
+  const VolumeData data = read_volume_vdb((fs::path(options.out_dir) / "volume.vdb").string());
+  EXPECT_EQ(data.bricks.size(), r.volume_bricks);
+}
+
+TEST(VolumeExport, SessionWithoutSaveVolumeWritesNoVolume) {
+  std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
+  SessionOptions options;
+  options.out_dir = fresh_dir("no_volume").string();
+  std::atomic<bool> stop{false};
+  const SessionResult r = run_session(*source, options, stop);
+  ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+  EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "volume.vdb"));
+  std::ifstream in(fs::path(options.out_dir) / "stats.json");
+  EXPECT_FALSE(nlohmann::json::parse(in).contains("volume"));
+}
+
+TEST(VolumeExport, UnwritableVolumeIsAUsageErrorBeforeTheRun) {
+  std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
+  SessionOptions options;
+  options.out_dir = fresh_dir("blocked").string();
+  options.save_volume = true;
+  fs::create_directories(fs::path(options.out_dir) / "volume.vdb");  // a folder in the way
+  std::atomic<bool> stop{false};
+  try {
+    run_session(*source, options, stop);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kUsage);
+    EXPECT_NE(std::string(e.what()).find("volume.vdb"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "stats.json"));  // nothing was run
+}
+
+}  // namespace
+}  // namespace aoscan
