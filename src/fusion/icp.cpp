@@ -100,6 +100,7 @@ struct Associator {
   const float* model_vertices;  ///< model vertex map as x, y, z floats, row-major
   const float* model_normals;
   int model_width;
+  int model_last;  ///< float index of the model's last pixel
 
   Associator(const PointMaps& model_maps, const Pose& T_model_camera, const TrackingConfig& config)
       : fx(static_cast<float>(model_maps.intrinsics.fx)),
@@ -113,7 +114,8 @@ struct Associator {
         huber(static_cast<float>(config.huber_delta_m)),
         model_vertices(model_maps.vertices.data()->data()),
         model_normals(model_maps.normals.data()->data()),
-        model_width(model_maps.vertices.width()) {
+        model_width(model_maps.vertices.width()),
+        model_last(3 * (model_maps.vertices.width() * model_maps.vertices.height() - 1)) {
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j)
         rot[3 * i + j] = static_cast<float>(T_model_camera.rotation()(i, j));
@@ -199,6 +201,23 @@ __attribute__((target("avx2,fma"))) AOSCAN_NO_CONTRACT inline __m256 rotate_row(
       _mm256_mul_ps(bc(m[3 * i + 2]), z));
 }
 
+/// Eight points base + offset[i] (x, y, z floats each) as x, y, z lanes; reads the float after
+/// each point too.
+__attribute__((target("avx2,fma"))) inline void load_xyz8(const float* base, const int* offset,
+                                                          __m256& x, __m256& y, __m256& z) {
+  __m256 r[4];
+  for (int i = 0; i < 4; ++i)
+    r[i] = _mm256_set_m128(_mm_loadu_ps(base + offset[i + 4]), _mm_loadu_ps(base + offset[i]));
+  // 4x4 transposes within each 128-bit half: lanes 0-3 are points 0-3, lanes 4-7 points 4-7.
+  const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]);  // x0 x1 y0 y1
+  const __m256 t1 = _mm256_unpackhi_ps(r[0], r[1]);  // z0 z1 . .
+  const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]);  // x2 x3 y2 y3
+  const __m256 t3 = _mm256_unpackhi_ps(r[2], r[3]);  // z2 z3 . .
+  x = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
+  y = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
+  z = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
+}
+
 /// Associator::row_portable() on eight pixels at a time with AVX2: the same correspondences (the
 /// association repeats the scalar operations lane by lane, without fused multiply-adds); the
 /// normal equations are summed per lane in float with FMAs and the lanes added in double, then
@@ -209,9 +228,15 @@ __attribute__((target("avx2,fma"))) AOSCAN_NO_CONTRACT void row_avx2(const Assoc
                                                                      int width, int step,
                                                                      Accumulator<double>& acc) {
   const int count = x0 < width ? (width - x0 + step - 1) / step : 0;
-  const int blocks = count / 8;
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256i frame_index = _mm256_mullo_epi32(lane, _mm256_set1_epi32(3 * step));
+  // Each pixel is read as four floats (x, y, z and the next pixel's x): a block never ends on
+  // the row's last pixel, so those reads stay inside the row.
+  int blocks = count / 8;
+  if (blocks > 0 && x0 + (8 * blocks - 1) * step >= width - 1) --blocks;
+  int frame_offset[8];
+  for (int i = 0; i < 8; ++i) frame_offset[i] = 3 * step * i;
+  // Model points are read the same way, except the image's last pixel (its extra float would lie
+  // past the end): a block that needs it gathers.
+  const __m256i model_last = _mm256_set1_epi32(a.model_last);
   const __m256 zero = _mm256_setzero_ps();
   const __m256 half = _mm256_set1_ps(0.5f);
   const __m256 one = _mm256_set1_ps(1.0f);
@@ -224,14 +249,11 @@ __attribute__((target("avx2,fma"))) AOSCAN_NO_CONTRACT void row_avx2(const Assoc
     const int x = x0 + 8 * b * step;
     const float* fv = vertices + 3 * x;
     const float* fn = normals + 3 * x;
-    const __m256 vz = _mm256_i32gather_ps(fv + 2, frame_index, 4);
+    __m256 vx, vy, vz, nx, ny, nz;
+    load_xyz8(fv, frame_offset, vx, vy, vz);
     __m256 ok = _mm256_cmp_ps(vz, zero, _CMP_GT_OQ);
     if (_mm256_movemask_ps(ok) == 0) continue;
-    const __m256 vx = _mm256_i32gather_ps(fv, frame_index, 4);
-    const __m256 vy = _mm256_i32gather_ps(fv + 1, frame_index, 4);
-    const __m256 nx = _mm256_i32gather_ps(fn, frame_index, 4);
-    const __m256 ny = _mm256_i32gather_ps(fn + 1, frame_index, 4);
-    const __m256 nz = _mm256_i32gather_ps(fn + 2, frame_index, 4);
+    load_xyz8(fn, frame_offset, nx, ny, nz);
     const __m256 n_zero = _mm256_and_ps(
         _mm256_and_ps(_mm256_cmp_ps(nx, zero, _CMP_EQ_OQ), _mm256_cmp_ps(ny, zero, _CMP_EQ_OQ)),
         _mm256_cmp_ps(nz, zero, _CMP_EQ_OQ));
@@ -259,12 +281,20 @@ __attribute__((target("avx2,fma"))) AOSCAN_NO_CONTRACT void row_avx2(const Assoc
         _mm256_add_epi32(_mm256_mullo_epi32(vi, _mm256_set1_epi32(a.model_width)), ui),
         _mm256_set1_epi32(3));
     index = _mm256_and_si256(index, _mm256_castps_si256(ok));  // rejected lanes read pixel 0
-    const __m256 qx = _mm256_i32gather_ps(a.model_vertices, index, 4);
-    const __m256 qy = _mm256_i32gather_ps(a.model_vertices + 1, index, 4);
-    const __m256 qz = _mm256_i32gather_ps(a.model_vertices + 2, index, 4);
-    const __m256 mx = _mm256_i32gather_ps(a.model_normals, index, 4);
-    const __m256 my = _mm256_i32gather_ps(a.model_normals + 1, index, 4);
-    const __m256 mz = _mm256_i32gather_ps(a.model_normals + 2, index, 4);
+    __m256 qx, qy, qz, mx, my, mz;
+    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(index, model_last)) == 0) {
+      alignas(32) int model_offset[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(model_offset), index);
+      load_xyz8(a.model_vertices, model_offset, qx, qy, qz);
+      load_xyz8(a.model_normals, model_offset, mx, my, mz);
+    } else {
+      qx = _mm256_i32gather_ps(a.model_vertices, index, 4);
+      qy = _mm256_i32gather_ps(a.model_vertices + 1, index, 4);
+      qz = _mm256_i32gather_ps(a.model_vertices + 2, index, 4);
+      mx = _mm256_i32gather_ps(a.model_normals, index, 4);
+      my = _mm256_i32gather_ps(a.model_normals + 1, index, 4);
+      mz = _mm256_i32gather_ps(a.model_normals + 2, index, 4);
+    }
     const __m256 m_zero = _mm256_and_ps(
         _mm256_and_ps(_mm256_cmp_ps(mx, zero, _CMP_EQ_OQ), _mm256_cmp_ps(my, zero, _CMP_EQ_OQ)),
         _mm256_cmp_ps(mz, zero, _CMP_EQ_OQ));

@@ -203,6 +203,27 @@ TEST(Icp, FastAndPortableSystemsMatchReferenceUnderMotionNoiseAndEveryStep) {
   }
 }
 
+TEST(Icp, SmallMapsMatchTheirLastPixelInsideAFastBlock) {
+  // A 20x10 plane at 1 m against itself shifted by 4 pixels: frame pixel (x, y) meets model pixel
+  // (x + 4, y), so frame pixel (15, 9), inside an eight-pixel block, meets the model's very last
+  // pixel (the fast path's special case); frame pixels x >= 16 fall outside the model.
+  PointMaps maps;
+  maps.intrinsics = Intrinsics{20, 10, 10.0, 10.0, 9.5, 4.5};
+  maps.vertices.resize(20, 10, Eigen::Vector3f::Zero());
+  maps.normals.resize(20, 10, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 20; ++x)
+      maps.vertices(x, y) = Eigen::Vector3f((x - 9.5f) / 10.0f, (y - 4.5f) / 10.0f, 1.0f);
+  const Pose T_model_camera(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.4, 0.0, 0.0));
+  const IcpSystem ref = icp_system_reference(maps, maps, T_model_camera, {});
+  const IcpSystem fast = icp_system(maps, maps, T_model_camera, {});
+  EXPECT_EQ(ref.valid, 200);
+  EXPECT_EQ(ref.inliers, 160);
+  EXPECT_EQ(fast.valid, ref.valid);
+  EXPECT_EQ(fast.inliers, ref.inliers);
+  EXPECT_LT((fast.A - ref.A).norm(), 1e-5 * ref.A.norm());
+}
+
 TEST(Icp, NoisySequenceTrajectoryErrorWithinThreeMillimetres) {
   // 12 frames sweeping 12 cm and 6 degrees past the corner, depth noise 3 mm: track every frame
   // against the raycast at the previous estimate, fuse it, raycast again (the KinectFusion loop).
