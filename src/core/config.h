@@ -19,7 +19,7 @@ struct PreprocessConfig {
   double outlier_threshold_m = 0.02;  ///< drop a pixel when any 8-neighbour differs by more
   /// Bilateral filter before tracking. Sigmas are PCL KinFu's (4.5 px, 0.03 m); KinFu's radius is
   /// 6 px (13x13 window), here 2 px (5x5) by default: about 5 ms per VGA frame on one core, and
-  /// RedKitchen tracks as well as with 7x7 (ATE 31.8 vs 32.9 mm). 0 disables the filter.
+  /// RedKitchen tracks as well as with 7x7. 0 disables the filter.
   int bilateral_radius_px = 2;
   double bilateral_sigma_space_px = 4.5;  ///< spatial Gaussian sigma (pixels)
   double bilateral_sigma_depth_m = 0.03;  ///< depth Gaussian sigma (m); |dz| > 3 sigma is ignored
@@ -96,7 +96,7 @@ struct TrackingConfig {
   /// checkerboard, half the pixels); coarser levels use every pixel.
   int level0_pixel_step = 2;
   double max_distance_m = 0.1;         ///< correspondences farther apart are rejected (m)
-  double max_normal_angle_deg = 20.0;  ///< correspondences whose normals differ more are rejected
+  double max_normal_angle_deg = 30.0;  ///< correspondences whose normals differ more are rejected
   double huber_delta_m = 0.005;        ///< Huber robust weight: residuals above are down-weighted
   double lost_inlier_ratio = 0.1;      ///< inliers / valid frame pixels below this: lost
   double poor_inlier_ratio = 0.3;      ///< inliers / valid frame pixels below this: poor
