@@ -29,6 +29,9 @@
 namespace aoscan {
 namespace {
 
+// The fast paths read vertex and normal maps as packed x, y, z floats.
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be three packed floats");
+
 /// Image rows reduced by one task; fixed so the summation order never depends on threads.
 constexpr int kRowsPerGroup = 4;
 /// Fewer inliers than this at full resolution: lost, whatever the ratio.
@@ -112,8 +115,8 @@ struct Associator {
         max_distance_sq(static_cast<float>(config.max_distance_m * config.max_distance_m)),
         min_normal_cos(static_cast<float>(std::cos(config.max_normal_angle_deg * M_PI / 180.0))),
         huber(static_cast<float>(config.huber_delta_m)),
-        model_vertices(model_maps.vertices.data()->data()),
-        model_normals(model_maps.normals.data()->data()),
+        model_vertices(reinterpret_cast<const float*>(model_maps.vertices.data())),
+        model_normals(reinterpret_cast<const float*>(model_maps.normals.data())),
         model_width(model_maps.vertices.width()),
         model_last(3 * (model_maps.vertices.width() * model_maps.vertices.height() - 1)) {
     for (int i = 0; i < 3; ++i) {
@@ -420,7 +423,8 @@ IcpSystem reduce_rows(const PointMaps& frame, int step, const RowFn& row) {
         for (int g = range.begin(); g < range.end(); ++g) {
           const int y_end = std::min(height, (g + 1) * kRowsPerGroup);
           for (int y = g * kRowsPerGroup; y < y_end; ++y)
-            row(acc, frame.vertices.row(y)->data(), frame.normals.row(y)->data(), y % step);
+            row(acc, reinterpret_cast<const float*>(frame.vertices.row(y)),
+                reinterpret_cast<const float*>(frame.normals.row(y)), y % step);
         }
         return acc;
       },

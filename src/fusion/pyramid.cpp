@@ -28,6 +28,9 @@
 namespace aoscan {
 namespace {
 
+// The fast paths read vertex and normal maps as packed x, y, z floats.
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be three packed floats");
+
 /// Gives `image` the size w x h; its pixels are left as they are when it has that size already
 /// (for outputs whose every pixel is written next).
 template <class T>
@@ -310,8 +313,8 @@ void compute_point_maps(const Image<float>& depth_m, const Intrinsics& intrinsic
       const float* dd = y + 1 < h ? depth_m.row(y + 1) : nullptr;
       const float rf = row_factor(intrinsics, y);
       const float rfd = row_factor(intrinsics, y + 1);
-      float* v = maps.vertices.row(y)->data();
-      float* n = maps.normals.row(y)->data();
+      float* v = reinterpret_cast<float*>(maps.vertices.row(y));
+      float* n = reinterpret_cast<float*>(maps.normals.row(y));
 #if defined(AOSCAN_POINTS_AVX2)
       if (avx2) {
         points_row_avx2(d, dd, cf, rf, rfd, w, max_depth_jump_m, v, n);
