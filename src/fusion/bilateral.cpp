@@ -23,6 +23,13 @@
 namespace aoscan {
 namespace {
 
+/// Gives `image` the size w x h; its pixels are left as they are when it has that size already
+/// (for outputs whose every pixel is written next).
+template <class T>
+void size_for_overwrite(Image<T>& image, int w, int h, const T& fill) {
+  if (image.width() != w || image.height() != h) image.resize(w, h, fill);
+}
+
 /// Largest radius accepted by the configuration (PreprocessConfig::visit).
 constexpr int kMaxRadius = 16;
 constexpr int kMaxTaps = (2 * kMaxRadius + 1) * (2 * kMaxRadius + 1);
@@ -230,6 +237,11 @@ __attribute__((target("avx2,fma"))) void filter_rows_avx2(const Image<float>& in
     for (; x < std::min(r, w); ++x) o[x] = filter_pixel(in, x, y, p);
     for (; x + 8 + r <= w; x += 8) {
       const __m256 c = _mm256_loadu_ps(centre + x);
+      const __m256 c_valid = _mm256_cmp_ps(c, zero, _CMP_GT_OQ);
+      if (_mm256_movemask_ps(c_valid) == 0) {  // eight holes stay holes
+        _mm256_storeu_ps(o + x, zero);
+        continue;
+      }
       __m256 sum = zero;
       __m256 weight = zero;
       for (int dy = dy0; dy <= dy1; ++dy) {
@@ -250,7 +262,7 @@ __attribute__((target("avx2,fma"))) void filter_rows_avx2(const Image<float>& in
         }
       }
       const __m256 res = _mm256_add_ps(c, _mm256_div_ps(sum, _mm256_max_ps(weight, tiny)));
-      _mm256_storeu_ps(o + x, _mm256_and_ps(_mm256_cmp_ps(c, zero, _CMP_GT_OQ), res));
+      _mm256_storeu_ps(o + x, _mm256_and_ps(c_valid, res));
     }
     for (; x < w; ++x) o[x] = filter_pixel(in, x, y, p);
   }
@@ -310,7 +322,7 @@ void bilateral_filter(const Image<float>& depth_m, const PreprocessConfig& confi
       out = depth_m;
       return;
     }
-    out.resize(depth_m.width(), depth_m.height());
+    size_for_overwrite(out, depth_m.width(), depth_m.height(), 0.0f);
     tbb::parallel_for(tbb::blocked_range<int>(0, depth_m.height(), 8),
                       [&](const tbb::blocked_range<int>& rows) {
                         filter_rows_avx2(depth_m, rows.begin(), rows.end(), p, out);

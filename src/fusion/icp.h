@@ -52,14 +52,21 @@ struct IcpSystem {
 /// is moved by T_model_camera into the camera frame of the model raycast, projected into `model`
 /// (camera frame of the model; nearest pixel) and paired with that model vertex / normal unless
 /// they are farther apart than max_distance_m or their normals differ by more than
-/// max_normal_angle_deg. Residual r = n_model . (p - q), Huber-weighted. Each image row is summed
-/// in float and the rows in double; multi-threaded over fixed groups of rows summed in a fixed
-/// order: the result does not depend on the thread count. `pixel_step` n > 1 uses only the frame
-/// pixels with x = y mod n, mod n (n = 2: a checkerboard); valid and inliers count those.
+/// max_normal_angle_deg. Residual r = n_model . (p - q), Huber-weighted. `pixel_step` n > 1 uses
+/// only the frame pixels with x = y mod n, mod n (n = 2: a checkerboard); valid and inliers count
+/// those. This is the fast version: AVX2 + FMA over eight pixels when the CPU has them (else
+/// icp_system_portable()), each image row summed in float and the rows in double, TBB over fixed
+/// groups of rows reduced in a fixed tree: the result does not depend on the thread count. It
+/// picks exactly the correspondences of icp_system_reference() (same valid and inlier counts) and
+/// agrees with its sums up to the float rounding of the row sums (about 1e-6 relative).
 IcpSystem icp_system(const PointMaps& frame, const PointMaps& model, const Pose& T_model_camera,
                      const TrackingConfig& config, int pixel_step = 1);
-/// Plain single-threaded reference of icp_system(): one running double sum over all pixels
-/// (equal up to the float rounding of the per-row sums, about 1e-6 relative).
+/// The scalar path of icp_system() that runs when the CPU lacks AVX2 + FMA (same contract and
+/// tolerance; rows summed in float one pixel after another). Exposed so tests cover it anywhere.
+IcpSystem icp_system_portable(const PointMaps& frame, const PointMaps& model,
+                              const Pose& T_model_camera, const TrackingConfig& config,
+                              int pixel_step = 1);
+/// Plain single-threaded reference of icp_system(): one running double sum over all pixels.
 IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
                                const Pose& T_model_camera, const TrackingConfig& config,
                                int pixel_step = 1);

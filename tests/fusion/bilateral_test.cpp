@@ -99,12 +99,17 @@ TEST(Bilateral, ReducesNoiseOnAPlane) {
   // drop by about sqrt(130) ~ 11 (the depth weights are close to 1 for 5 mm noise); require 8.
   EXPECT_NEAR(before, 0.005, 0.0003);
   EXPECT_LT(after, before / 8.0) << before << " -> " << after;
-  // The default 7x7 window: about 45 effective samples, expected factor ~6.7; require 5.
+  // A 7x7 window: about 45 effective samples, expected factor ~6.7; require 5.
+  config.bilateral_radius_px = 3;
+  const double after_7 = stddev(filter_both(in, config));
+  EXPECT_LT(after_7, before / 5.0) << before << " -> " << after_7;
+  EXPECT_GT(after_7, after);
+  // The default 5x5 window: about 23 effective samples, expected factor ~4.8; require 4.
   config.bilateral_radius_px = PreprocessConfig{}.bilateral_radius_px;
-  ASSERT_EQ(config.bilateral_radius_px, 3);
+  ASSERT_EQ(config.bilateral_radius_px, 2);
   const double after_small = stddev(filter_both(in, config));
-  EXPECT_LT(after_small, before / 5.0) << before << " -> " << after_small;
-  EXPECT_GT(after_small, after);
+  EXPECT_LT(after_small, before / 4.0) << before << " -> " << after_small;
+  EXPECT_GT(after_small, after_7);
 }
 
 TEST(Bilateral, RadiusZeroCopies) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -167,6 +168,60 @@ TEST(Icp, ParallelSystemMatchesReferenceAndIgnoresThreadCount) {
   EXPECT_NEAR(half.inliers, ref.inliers / 2, ref.inliers / 100);
   EXPECT_LT((half.A - half_ref.A).norm(), 1e-5 * half_ref.A.norm());
   EXPECT_LT((half.A - 0.5 * ref.A).norm(), 0.05 * ref.A.norm());
+}
+
+TEST(Icp, FastAndPortableSystemsMatchReferenceUnderMotionNoiseAndEveryStep) {
+  // A noisy frame 2 cm / 2 degrees off the model pose: many pixels are rejected by distance,
+  // normal angle or bounds and the Huber weight is active, so every branch of the association is
+  // exercised. The AVX2 and scalar paths must pick exactly the reference's correspondences.
+  const Tracked t(0.003);
+  const Pose B = t.A * test::motion({1, 1, 0}, 2.0, {0.02, -0.01, 0.01});
+  const DepthPyramid frame = test::render_pyramid(t.scene, kKinect, B, 0.006, 5);
+  const Pose T_model_camera = t.A.inverse() * B;
+  TrackingConfig config;
+  config.huber_delta_m = 0.002;
+  config.max_normal_angle_deg = 10.0;
+  for (int level = 0; level < kPyramidLevels; ++level) {
+    for (int step = 1; step <= 3; ++step) {
+      SCOPED_TRACE("level " + std::to_string(level) + " step " + std::to_string(step));
+      const PointMaps& maps = frame.maps[level];
+      const IcpSystem ref = icp_system_reference(maps, t.model.maps, T_model_camera, config, step);
+      const IcpSystem fast = icp_system(maps, t.model.maps, T_model_camera, config, step);
+      const IcpSystem portable =
+          icp_system_portable(maps, t.model.maps, T_model_camera, config, step);
+      EXPECT_GT(ref.inliers, 500);
+      EXPECT_LT(ref.inliers, ref.valid * 9 / 10);  // a real share of the pixels is rejected
+      for (const IcpSystem* s : {&fast, &portable}) {
+        SCOPED_TRACE(s == &fast ? "fast" : "portable");
+        EXPECT_EQ(s->valid, ref.valid);
+        EXPECT_EQ(s->inliers, ref.inliers);
+        EXPECT_LT((s->A - ref.A).norm(), 1e-5 * ref.A.norm());
+        EXPECT_LT((s->b - ref.b).norm(), 1e-5 * std::sqrt(ref.A.trace() * ref.residual_sq));
+        EXPECT_NEAR(s->residual_sq, ref.residual_sq, 1e-5 * ref.residual_sq);
+      }
+    }
+  }
+}
+
+TEST(Icp, SmallMapsMatchTheirLastPixelInsideAFastBlock) {
+  // A 20x10 plane at 1 m against itself shifted by 4 pixels: frame pixel (x, y) meets model pixel
+  // (x + 4, y), so frame pixel (15, 9), inside an eight-pixel block, meets the model's very last
+  // pixel (the fast path's special case); frame pixels x >= 16 fall outside the model.
+  PointMaps maps;
+  maps.intrinsics = Intrinsics{20, 10, 10.0, 10.0, 9.5, 4.5};
+  maps.vertices.resize(20, 10, Eigen::Vector3f::Zero());
+  maps.normals.resize(20, 10, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 20; ++x)
+      maps.vertices(x, y) = Eigen::Vector3f((x - 9.5f) / 10.0f, (y - 4.5f) / 10.0f, 1.0f);
+  const Pose T_model_camera(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.4, 0.0, 0.0));
+  const IcpSystem ref = icp_system_reference(maps, maps, T_model_camera, {});
+  const IcpSystem fast = icp_system(maps, maps, T_model_camera, {});
+  EXPECT_EQ(ref.valid, 200);
+  EXPECT_EQ(ref.inliers, 160);
+  EXPECT_EQ(fast.valid, ref.valid);
+  EXPECT_EQ(fast.inliers, ref.inliers);
+  EXPECT_LT((fast.A - ref.A).norm(), 1e-5 * ref.A.norm());
 }
 
 TEST(Icp, NoisySequenceTrajectoryErrorWithinThreeMillimetres) {

@@ -2,7 +2,10 @@
 /// @brief Tests for src/fusion/pyramid.cpp on analytic scenes: vertex and normal maps of planes and
 /// a sphere, 2x2 downsampling, pyramid levels and intrinsics.
 #include <cmath>
+#include <algorithm>
 #include <cstring>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -236,6 +239,67 @@ TEST(Pyramid, TinyImagesDoNotCrash) {
     build_pyramid(Image<float>(w, h, 1.0f), k, PreprocessConfig{}, pyramid);
     EXPECT_EQ(pyramid.depth_m[2].width(), w / 4);
     EXPECT_EQ(pyramid.maps[2].normals.height(), h / 4);
+  }
+}
+
+}  // namespace
+}  // namespace aoscan
+
+namespace aoscan {
+namespace {
+
+/// Largest absolute component difference of two vector maps, and whether their zero (invalid)
+/// pixels coincide.
+float max_difference(const Image<Eigen::Vector3f>& a, const Image<Eigen::Vector3f>& b,
+                     bool& same_zeros) {
+  float worst = 0.0f;
+  same_zeros = a.width() == b.width() && a.height() == b.height();
+  for (int y = 0; same_zeros && y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) {
+      if (a(x, y).isZero() != b(x, y).isZero()) same_zeros = false;
+      worst = std::max(worst, (a(x, y) - b(x, y)).cwiseAbs().maxCoeff());
+    }
+  return worst;
+}
+
+TEST(PointMaps, FusedFastMapsEqualVertexAndNormalMapReferences) {
+  // Random patches (depth steps above and below the jump, holes, noise), several sizes including
+  // widths that are not a multiple of eight and a single row / column, and a slanted plane.
+  struct Case {
+    Image<float> depth;
+    Intrinsics k;
+  };
+  std::vector<Case> cases;
+  const int sizes[][2] = {{640, 480}, {37, 23}, {9, 9}, {8, 3}, {1, 5}, {5, 1}};
+  std::uint32_t seed = 3;
+  for (const auto& s : sizes) {
+    const Intrinsics k{
+        s[0], s[1], 585.0 * s[0] / 640, 585.0 * s[0] / 640, s[0] / 2.0 - 0.3, s[1] / 2.0 + 0.2};
+    cases.push_back({test::random_depth(s[0], s[1], seed++), k});
+  }
+  const Intrinsics kinect = test::redkitchen_intrinsics();
+  cases.push_back(
+      {test::render_plane(kinect, Eigen::Vector3d(0.3, -0.2, -1).normalized(), -1.5), kinect});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::to_string(c.k.width) + "x" + std::to_string(c.k.height));
+    PointMaps fast;  // reused: the second jump overwrites the first one's maps in place
+    for (float jump : {0.1f, 0.01f}) {
+      Image<Eigen::Vector3f> vertices, normals;
+      compute_vertex_map(c.depth, c.k, vertices);
+      compute_normal_map(vertices, jump, normals);
+      compute_point_maps(c.depth, c.k, jump, fast);
+      bool same_zeros = false;
+      // Bit for bit in the default build; 1e-6 allows FMA contraction of the references.
+      EXPECT_LE(max_difference(fast.vertices, vertices, same_zeros), 1e-6f);
+      EXPECT_TRUE(same_zeros);
+      EXPECT_LE(max_difference(fast.normals, normals, same_zeros), 1e-6f);
+      EXPECT_TRUE(same_zeros);
+      EXPECT_EQ(fast.intrinsics.width, c.k.width);
+#if !defined(__FMA__)
+      EXPECT_TRUE(fast.vertices == vertices);
+      EXPECT_TRUE(fast.normals == normals);
+#endif
+    }
   }
 }
 
