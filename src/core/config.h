@@ -19,7 +19,8 @@ struct PreprocessConfig {
   double max_depth_m = 4.5;           ///< farther depths are invalid
   double outlier_threshold_m = 0.02;  ///< drop a pixel when any 8-neighbour differs by more
   /// ... than outlier_threshold_m + outlier_threshold_per_m2 * depth^2 (the depth resolution of
-  /// a triangulating sensor falls with depth^2; 0 gives the paper's fixed threshold).
+  /// a triangulating sensor falls with depth^2; 0 gives the paper's fixed threshold). The depth
+  /// term applies to the fused (and SSAO raw) depth; tracking always uses the fixed threshold.
   double outlier_threshold_per_m2 = 0.002;
   /// Bilateral filter before tracking. Sigmas are PCL KinFu's (4.5 px, 0.03 m); KinFu's radius is
   /// 6 px (13x13 window), here 2 px (5x5) by default: about 5 ms per VGA frame on one core, and
@@ -43,8 +44,8 @@ struct PreprocessConfig {
              "than this (m) plus outlier_threshold_per_m2 * depth^2; 0 disables",
              0.0, 10.0);
     v.number("outlier_threshold_per_m2", outlier_threshold_per_m2,
-             "border-outlier removal: growth of the threshold with the square of the pixel's depth "
-             "(1/m); 0 keeps it fixed as in the paper",
+             "border-outlier removal of the fused depth: growth of the threshold with the square of "
+             "the pixel's depth (1/m); 0 keeps it fixed as in the paper (tracking always does)",
              0.0, 1.0);
     v.integer("bilateral_radius_px", bilateral_radius_px,
               "bilateral filter half-window (px); 0 disables the filter", 0, 16);

@@ -130,9 +130,12 @@ void remove_border_outliers(const Image<float>& depth_m, float threshold_m,
   }
 }
 
-void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, Image<float>& out) {
+void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, Image<float>& out,
+                      Image<float>* tracking_out) {
   const float t = static_cast<float>(config.outlier_threshold_m);
   const float per_m2 = static_cast<float>(config.outlier_threshold_per_m2);
+  const bool two = tracking_out != nullptr && per_m2 > 0.0f && filter_enabled(t);
+  if (tracking_out && !two) tracking_out->resize(0, 0);
   if (!filter_enabled(t)) {
     depth_to_metres(frame, config, out);
     return;
@@ -141,6 +144,7 @@ void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, I
   const int w = frame.depth.width();
   const int h = frame.depth.height();
   out.resize(w, h);
+  if (two) tracking_out->resize(w, h);
   if (w == 0 || h == 0) return;
   // Three converted rows in a ring: row y lives at slot y % 3.
   thread_local std::vector<float> ring;
@@ -153,6 +157,7 @@ void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, I
     const float* up = y > 0 ? slot(y - 1) : mid;
     const float* dn = y + 1 < h ? slot(y + 1) : mid;
     filter_row(up, mid, dn, w, t, per_m2, out.row(y));
+    if (two) filter_row(up, mid, dn, w, t, 0.0f, tracking_out->row(y));
   }
 }
 
@@ -165,8 +170,8 @@ void preprocess_frame(const DepthFrame& frame, const PreprocessConfig& config,
                       std::to_string(frame.depth.height()) + " but the intrinsics say " +
                       std::to_string(k.width) + "x" + std::to_string(k.height));
   }
-  preprocess_depth(frame, config, out.depth_m);
-  bilateral_filter(out.depth_m, config, out.filtered_m);
+  preprocess_depth(frame, config, out.depth_m, &out.tracking_m);
+  bilateral_filter(out.tracking_depth(), config, out.filtered_m);
   build_pyramid(out.filtered_m, k, config, out.pyramid);
 }
 

@@ -27,12 +27,12 @@ std::vector<StageDef> Processing::stages() {
 }
 
 Status Processing::preprocess(FrameWork& frame) const {
-  preprocess_depth(frame.raw, config_.preprocess, frame.pre.depth_m);
+  preprocess_depth(frame.raw, config_.preprocess, frame.pre.depth_m, &frame.pre.tracking_m);
   return Status::ok();
 }
 
 Status Processing::filter(FrameWork& frame) const {
-  bilateral_filter(frame.pre.depth_m, config_.preprocess, frame.pre.filtered_m);
+  bilateral_filter(frame.pre.tracking_depth(), config_.preprocess, frame.pre.filtered_m);
   build_pyramid(frame.pre.filtered_m, frame.raw.intrinsics, config_.preprocess, frame.pre.pyramid);
   return Status::ok();
 }

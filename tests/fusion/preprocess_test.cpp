@@ -295,12 +295,21 @@ TEST(PreprocessDepth, FusedEqualsSeparateSteps) {
         PreprocessConfig config;
         config.outlier_threshold_m = t;
         config.outlier_threshold_per_m2 = per_m2;
-        Image<float> metres, separate, fused;
+        Image<float> metres, separate, fused, fixed_separate, fixed_fused, fused_alone;
         depth_to_metres(f, config, metres);
         remove_border_outliers_reference(metres, static_cast<float>(t),
                                          static_cast<float>(per_m2), separate);
-        preprocess_depth(f, config, fused);
+        remove_border_outliers_reference(metres, static_cast<float>(t), 0.0f, fixed_separate);
+        preprocess_depth(f, config, fused, &fixed_fused);
+        preprocess_depth(f, config, fused_alone);
         EXPECT_TRUE(bitwise_equal(fused, separate)) << w << "x" << h << " t=" << t;
+        EXPECT_TRUE(bitwise_equal(fused_alone, separate)) << w << "x" << h << " t=" << t;
+        // The tracking depth: the fixed threshold alone, or empty when that is `fused` itself.
+        if (per_m2 > 0.0 && t > 0.0) {
+          EXPECT_TRUE(bitwise_equal(fixed_fused, fixed_separate)) << w << "x" << h << " t=" << t;
+        } else {
+          EXPECT_TRUE(fixed_fused.empty());
+        }
       }
   }
 }
