@@ -113,8 +113,8 @@ void remove_border_outliers_reference(const Image<float>& depth_m, float thresho
   }
 }
 
-void remove_border_outliers(const Image<float>& depth_m, float threshold_m,
-                            float threshold_per_m2, Image<float>& out) {
+void remove_border_outliers(const Image<float>& depth_m, float threshold_m, float threshold_per_m2,
+                            Image<float>& out) {
   const int w = depth_m.width();
   const int h = depth_m.height();
   if (!filter_enabled(threshold_m)) {

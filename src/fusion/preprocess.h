@@ -47,8 +47,8 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
 /// - `threshold_m` <= 0 disables the filter (the output is a copy).
 /// This is the fast version (row pointers, branch-free vectorisable inner loop); it equals
 /// remove_border_outliers_reference() bit for bit.
-void remove_border_outliers(const Image<float>& depth_m, float threshold_m,
-                            float threshold_per_m2, Image<float>& out);
+void remove_border_outliers(const Image<float>& depth_m, float threshold_m, float threshold_per_m2,
+                            Image<float>& out);
 
 /// Plain per-pixel scalar reference of remove_border_outliers() (same contract).
 void remove_border_outliers_reference(const Image<float>& depth_m, float threshold_m,
@@ -138,7 +138,8 @@ void build_pyramid(const Image<float>& filtered_m, const Intrinsics& intrinsics,
 /// 42.2 mm with the depth-scaled one), while integration needs the far pixels that only the
 /// depth-scaled threshold keeps (a noisy synthetic corner's far wall).
 struct PreprocessedFrame {
-  Image<float> depth_m;  ///< metres, range-clipped, border outliers removed: fused; SSAO "raw" input
+  Image<float>
+      depth_m;  ///< metres, range-clipped, border outliers removed: fused; SSAO "raw" input
   /// depth_m with the fixed outlier threshold alone; empty when that is depth_m itself
   Image<float> tracking_m;
   Image<float> filtered_m;  ///< tracking_depth() after the bilateral filter

@@ -48,6 +48,8 @@ struct FrameWork {
   /// Only while a view consumer exists: AO from the MVAO grid at each raycast pixel's world point,
   /// in [0, 1], NaN = unobserved cell or no surface (filled by the mvao stage after integrating).
   Image<float> mvao;
+  /// The mvao stage built this frame's view products (mvao): the view stage shows only such frames.
+  bool view_products = false;
   /// `s` (write outputs now): the surface extracted by the track stage after this frame (world
   /// frame, no AO yet) and the trajectory so far; the mvao stage adds the AO and writes both.
   std::shared_ptr<TriangleMesh> export_mesh;

@@ -94,7 +94,10 @@ Status Processing::mvao(FrameWork& frame) {
         config_.ao.input == AoInput::kRaw ? frame.raw_maps : frame.raycast->maps;
     status = grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera);
   }
-  if (view_products_.load() && frame.raycast)
+  frame.view_products =
+      view_products_.load() &&
+      frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0;
+  if (frame.view_products && frame.raycast)
     mvao_image(grid_, frame.raycast->maps, frame.fusion.T_world_camera, frame.mvao);
   else
     frame.mvao.resize(0, 0);

@@ -38,8 +38,12 @@ class Processing {
   /// Asks for mesh.ply and trajectory.txt in out_dir now (thread-safe): the track stage extracts
   /// the surface after its next frame, the mvao stage gives it AO and writes both files.
   void request_write_outputs() { write_requested_.store(true); }
-  /// While true the mvao stage fills FrameWork::mvao for the view consumers (thread-safe).
-  void set_view_products(bool enabled) { view_products_.store(enabled); }
+  /// While enabled the mvao stage fills FrameWork::mvao for the view consumers, for every
+  /// `every`-th frame of the source (thread-safe).
+  void set_view_products(bool enabled, int every = 1) {
+    view_products_every_.store(every < 1 ? 1 : every);
+    view_products_.store(enabled);
+  }
 
   /// Models started by request_reset() so far, and on-demand writes done (thread-safe).
   std::size_t model_resets() const { return model_resets_.load(); }
@@ -85,6 +89,7 @@ class Processing {
   std::atomic<bool> paused_{false};
   std::atomic<bool> write_requested_{false};
   std::atomic<bool> view_products_{false};
+  std::atomic<int> view_products_every_{1};
   std::atomic<std::size_t> model_resets_{0};
   std::atomic<std::size_t> outputs_written_{0};
 };

@@ -129,6 +129,10 @@ class CommandPump {
 /// Redraws per second of the live view (the camera delivers 30 frames a second), and the nice
 /// increment of its thread.
 constexpr double kWindowRedrawHz = 30.0;
+/// With the window alone (no snapshots), view products are built for every n-th frame: the MVAO
+/// image (a grid lookup per raycast pixel) and the view frame cost about 20 ms of CPU together,
+/// which on two cores fusion needs (window replay at 71 % of headless fps with every frame).
+constexpr int kWindowProductsEvery = 2;
 constexpr int kWindowNice = 10;
 
 /// The live view on its own thread; stopped and joined by stop() or the destructor.
@@ -287,7 +291,7 @@ SessionResult run_session(Source& source, const SessionOptions& options,
       vopts.snapshots = snapshots;
     }
     view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
-    processing.set_view_products(true);
+    processing.set_view_products(true, options.snapshot_dir.empty() ? kWindowProductsEvery : 1);
     ViewStage* stage = view.get();
     stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
   }

@@ -96,7 +96,7 @@ void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
 
 Status ViewStage::process(FrameWork& frame) {
   ++frames_seen_;
-  if (!active()) return Status::ok();
+  if (!active() || !frame.view_products) return Status::ok();
 
   // The orbit cloud follows the model: a reset starts it over.
   if (frame.model_reset) {

@@ -208,8 +208,13 @@ TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
   PipelineOptions popts;
   std::atomic<bool> stop{false};
   const auto t0 = std::chrono::steady_clock::now();
-  const PipelineResult r = run_pipeline(
-      source, {{"view", [&view](FrameWork& f) { return view.process(f); }}}, popts, stop);
+  const PipelineResult r = run_pipeline(source,
+                                        {{"view",
+                                          [&view](FrameWork& f) {
+                                            f.view_products = true;  // as the mvao stage marks them
+                                            return view.process(f);
+                                          }}},
+                                        popts, stop);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   done.store(true);
@@ -225,6 +230,27 @@ TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
   EXPECT_EQ(latest->first->hud.frames_processed, 100u);
   EXPECT_EQ(latest->first->depth_m.width(), 8);  // untracked frame: sized, without surface
   EXPECT_EQ(latest->first->depth_m(0, 0), 0.0f);
+}
+
+TEST(ViewStage, FramesWithoutViewProductsAreNotShown) {
+  ViewStageOptions options;
+  options.stage_names = {"capture", "view"};
+  options.publish = true;
+  ViewStage view(options);
+  testing::FakeSource source(10);
+  PipelineOptions popts;
+  std::atomic<bool> stop{false};
+  const PipelineResult r = run_pipeline(source,
+                                        {{"view",
+                                          [&view](FrameWork& f) {
+                                            f.view_products = f.raw.sequence % 2 == 0;
+                                            return view.process(f);
+                                          }}},
+                                        popts, stop);
+  ASSERT_TRUE(r.status.is_ok()) << r.status.message();
+  EXPECT_EQ(view.frames_seen(), 10u);
+  EXPECT_EQ(view.mailbox().version(), 5u);  // frames 0, 2, 4, 6, 8
+  EXPECT_EQ(view.mailbox().latest()->first->sequence, 8u);
 }
 
 /// A synthetic source that pushes user commands when it reaches given frames and can wait
