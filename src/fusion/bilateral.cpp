@@ -19,6 +19,7 @@
 #include <tbb/parallel_for.h>
 
 #include "fusion/preprocess.h"
+#include "fusion/simd.h"
 
 namespace aoscan {
 namespace {
@@ -268,11 +269,6 @@ __attribute__((target("avx2,fma"))) void filter_rows_avx2(const Image<float>& in
   }
 }
 
-/// True when the CPU running this process has AVX2 and FMA (checked once).
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
 #endif
 
 }  // namespace

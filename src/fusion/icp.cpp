@@ -16,15 +16,7 @@
 #include <Eigen/Geometry>
 
 #include "core/status.h"
-
-// The association must round exactly alike in the scalar and the AVX2 paths: no contraction of
-// a * b + c into fused multiply-adds where the target has them (explicit _mm256_fmadd_ps only).
-#if defined(__clang__)
-#pragma STDC FP_CONTRACT OFF
-#define AOSCAN_NO_CONTRACT
-#else
-#define AOSCAN_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
-#endif
+#include "fusion/simd.h"
 
 namespace aoscan {
 namespace {
@@ -172,12 +164,6 @@ struct Associator {
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define AOSCAN_ICP_AVX2 1
-
-/// True when the CPU running this process has AVX2 and FMA (checked once).
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
 
 /// Horizontal sum of eight float lanes in double, lane 0 first.
 __attribute__((target("avx2,fma"))) inline double lane_sum(__m256 v) {

@@ -15,15 +15,7 @@
 
 #include "core/status.h"
 #include "fusion/preprocess.h"
-
-// The fast point maps must round exactly like the scalar ones: no contraction of a * b + c into
-// fused multiply-adds where the target has them.
-#if defined(__clang__)
-#pragma STDC FP_CONTRACT OFF
-#define AOSCAN_NO_CONTRACT
-#else
-#define AOSCAN_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
-#endif
+#include "fusion/simd.h"
 
 namespace aoscan {
 namespace {
@@ -116,12 +108,6 @@ void points_row_scalar(const float* d, const float* dd, const float* cf, float r
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define AOSCAN_POINTS_AVX2 1
-
-/// True when the CPU running this process has AVX2 (checked once).
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 
 /// Writes eight (x, y, z) lanes as 24 interleaved floats.
 __attribute__((target("avx2"))) inline void store_xyz8(float* out, __m256 x, __m256 y, __m256 z) {

@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/status.h"
+#include "fusion/simd.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define AOSCAN_TSDF_X86 1
@@ -154,10 +155,6 @@ void update_block_portable(const BlockProjection& b, Voxel* voxels) {
 }
 
 #if AOSCAN_TSDF_X86
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 
 /// update_block_portable() with one voxel row (8 voxels) per AVX2 vector and a gather of the 8
 /// depths: the same operations in the same order, so bit for bit the same result (no FMA).
