@@ -20,21 +20,13 @@ void mvao_row(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_c
   const Eigen::Vector3d& t = T_world_camera.translation();
   const Eigen::Vector3f* vertices = maps.vertices.row(y);
   float* ao = out.row(y);
-  // Neighbouring pixels often fall into the same cell: its value is looked up once.
-  std::optional<CellIndex> last_cell;
-  float last_value = kNan;
   for (int x = 0; x < out.width(); ++x) {
     const Eigen::Vector3f& v = vertices[x];
     ao[x] = kNan;
     if (v.isZero()) continue;
     const std::optional<CellIndex> cell = grid.cell_of(R * v.cast<double>() + t);
     if (!cell) continue;
-    if (cell != last_cell) {
-      const std::optional<float> value = grid.cell_ao(*cell);
-      last_cell = cell;
-      last_value = value ? *value : kNan;
-    }
-    ao[x] = last_value;
+    if (const std::optional<float> value = grid.cell_ao(*cell)) ao[x] = *value;
   }
 }
 
