@@ -179,6 +179,38 @@ std::optional<CellIndex> MvaoGrid::cell_of(const Eigen::Vector3d& p_world) const
   return CellIndex{*cx, *cy, *cz};
 }
 
+void MvaoGrid::lookup_ao(const Eigen::Vector3f* vertices, std::size_t n, const Pose& T_world_camera,
+                         float* out) const {
+  const Eigen::Matrix3d& R = T_world_camera.rotation();
+  const Eigen::Vector3d& t = T_world_camera.translation();
+  const std::size_t mask = keys_.size() - 1;
+  constexpr std::size_t kBatch = 64;
+  std::uint64_t codes[kBatch];
+  for (std::size_t begin = 0; begin < n; begin += kBatch) {
+    const std::size_t count = std::min(kBatch, n - begin);
+    for (std::size_t k = 0; k < count; ++k) {  // cell codes, table slots prefetched
+      codes[k] = kEmpty;
+      const Eigen::Vector3f& v = vertices[begin + k];
+      if (v.isZero()) continue;
+      const Eigen::Vector3d p = (R * v.cast<double>() + t) / cell_size_m_;  // as cell_of()
+      std::int32_t cx, cy, cz;
+      if (!to_cell_fast(p.x(), cx) || !to_cell_fast(p.y(), cy) || !to_cell_fast(p.z(), cz))
+        continue;
+      codes[k] = *morton_encode(cx, cy, cz);
+      const std::size_t slot = mix(codes[k]) & mask;
+      __builtin_prefetch(&keys_[slot]);
+      __builtin_prefetch(&cells_[slot]);
+    }
+    for (std::size_t k = 0; k < count; ++k) {
+      float& ao = out[begin + k];
+      ao = std::numeric_limits<float>::quiet_NaN();
+      if (codes[k] == kEmpty) continue;
+      const std::size_t s = slot_of(codes[k]);
+      if (keys_[s] == codes[k] && cells_[s].weight_sum > 0.0f) ao = cells_[s].ao();
+    }
+  }
+}
+
 const MvaoCell* MvaoGrid::find(const CellIndex& c) const {
   const auto code = morton_encode(c[0], c[1], c[2]);
   if (!code) return nullptr;

@@ -60,6 +60,12 @@ class MvaoGrid {
   const MvaoCell* find(const CellIndex& cell) const;
   /// AO of an observed cell, or nullopt.
   std::optional<float> cell_ao(const CellIndex& cell) const;
+  /// out[i] = AO of the observed cell containing T_world_camera * vertices[i] (camera frame,
+  /// metres), NaN where that cell was never observed, the vertex is zero (no surface) or the point
+  /// is outside the Morton range: cell_ao(cell_of(...)) for n points, with the table lookups of a
+  /// batch of points prefetched together (the per-pixel lookups of a view image).
+  void lookup_ao(const Eigen::Vector3f* vertices, std::size_t n, const Pose& T_world_camera,
+                 float* out) const;
   /// World position of a cell's centre (metres).
   Eigen::Vector3d cell_centre(const CellIndex& cell) const;
 

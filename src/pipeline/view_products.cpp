@@ -13,23 +13,6 @@ namespace {
 
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 
-/// One row of the MVAO image (shared by the parallel and the reference version).
-void mvao_row(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera, int y,
-              Image<float>& out) {
-  const Eigen::Matrix3d& R = T_world_camera.rotation();
-  const Eigen::Vector3d& t = T_world_camera.translation();
-  const Eigen::Vector3f* vertices = maps.vertices.row(y);
-  float* ao = out.row(y);
-  for (int x = 0; x < out.width(); ++x) {
-    const Eigen::Vector3f& v = vertices[x];
-    ao[x] = kNan;
-    if (v.isZero()) continue;
-    const std::optional<CellIndex> cell = grid.cell_of(R * v.cast<double>() + t);
-    if (!cell) continue;
-    if (const std::optional<float> value = grid.cell_ao(*cell)) ao[x] = *value;
-  }
-}
-
 }  // namespace
 
 void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
@@ -38,14 +21,26 @@ void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world
   tbb::parallel_for(tbb::blocked_range<int>(0, out.height()),
                     [&](const tbb::blocked_range<int>& r) {
                       for (int y = r.begin(); y < r.end(); ++y)
-                        mvao_row(grid, maps, T_world_camera, y, out);
+                        grid.lookup_ao(maps.vertices.row(y), static_cast<std::size_t>(out.width()),
+                                       T_world_camera, out.row(y));
                     });
 }
 
 void mvao_image_reference(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
                           Image<float>& out) {
   out.resize(maps.vertices.width(), maps.vertices.height());
-  for (int y = 0; y < out.height(); ++y) mvao_row(grid, maps, T_world_camera, y, out);
+  const Eigen::Matrix3d& R = T_world_camera.rotation();
+  const Eigen::Vector3d& t = T_world_camera.translation();
+  for (int y = 0; y < out.height(); ++y) {
+    for (int x = 0; x < out.width(); ++x) {
+      const Eigen::Vector3f& v = maps.vertices(x, y);
+      out(x, y) = kNan;
+      if (v.isZero()) continue;
+      const std::optional<CellIndex> cell = grid.cell_of(R * v.cast<double>() + t);
+      if (!cell) continue;
+      if (const std::optional<float> value = grid.cell_ao(*cell)) out(x, y) = *value;
+    }
+  }
 }
 
 SurfaceCloud::SurfaceCloud(SurfaceCloudOptions options) : options_(options) {

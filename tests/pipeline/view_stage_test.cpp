@@ -11,6 +11,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "capture/source.h"
 #include "fake_source.h"
@@ -74,29 +75,36 @@ PointMaps wall_maps(int width, int height, float depth_m) {
 TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   AoConfig config;
   MvaoGrid grid(config);
-  const PointMaps maps = wall_maps(64, 48, 1.0f);
-  Image<float> ao(64, 48), weight(64, 48, 1.0f);
-  for (int y = 0; y < 48; ++y)
-    for (int x = 0; x < 64; ++x) ao(x, y) = (x < 32) ? 0.25f : 0.75f;
-  for (int y = 24; y < 48; ++y)
-    for (int x = 0; x < 64; ++x) weight(x, y) = 0.0f;  // lower half never observed
-  ASSERT_TRUE(grid.integrate(ao, weight, maps, Pose()).is_ok());
+  // 100 pixels a row: the batched lookup's batches do not divide the row.
+  const int width = 100, height = 48;
+  const PointMaps maps = wall_maps(width, height, 1.0f);
+  Image<float> ao(width, height), weight(width, height, 1.0f);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) ao(x, y) = (x < width / 2) ? 0.25f : 0.75f;
+  for (int y = 24; y < height; ++y)
+    for (int x = 0; x < width; ++x) weight(x, y) = 0.0f;  // lower half never observed
+  const Pose T_world_camera(
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+      Eigen::Vector3d(-0.7, 0.2, 1.3));
+  ASSERT_TRUE(grid.integrate(ao, weight, maps, T_world_camera).is_ok());
 
   PointMaps seen = maps;
   seen.vertices(5, 5).setZero();  // no surface
+  seen.vertices(6, 5).setConstant(std::numeric_limits<float>::quiet_NaN());
+  seen.vertices(7, 5) = Eigen::Vector3f(0.0f, 0.0f, 1e9f);  // outside the Morton range
   Image<float> fast, reference;
-  mvao_image(grid, seen, Pose(), fast);
-  mvao_image_reference(grid, seen, Pose(), reference);
-  ASSERT_EQ(fast.width(), 64);
-  ASSERT_EQ(fast.height(), 48);
-  for (int y = 0; y < 48; ++y)
-    for (int x = 0; x < 64; ++x) {
+  mvao_image(grid, seen, T_world_camera, fast);
+  mvao_image_reference(grid, seen, T_world_camera, reference);
+  ASSERT_EQ(fast.width(), width);
+  ASSERT_EQ(fast.height(), height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
       const float f = fast(x, y), r = reference(x, y);
       EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
     }
-  EXPECT_TRUE(std::isnan(fast(5, 5)));
+  for (int x = 5; x <= 7; ++x) EXPECT_TRUE(std::isnan(fast(x, 5))) << x;
   EXPECT_FLOAT_EQ(fast(2, 10), 0.25f);    // a cell only the left half touched
-  EXPECT_FLOAT_EQ(fast(60, 10), 0.75f);   // only the right half
+  EXPECT_FLOAT_EQ(fast(96, 10), 0.75f);   // only the right half
   EXPECT_TRUE(std::isnan(fast(10, 46)));  // unobserved cell
 }
 

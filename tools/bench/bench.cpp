@@ -1,13 +1,14 @@
 /// @file bench.cpp
 /// @brief aoscan-bench: per-stage milliseconds and frames per second of the pipeline's stages on a
 /// recording, either serially on one thread (what each stage costs) or as the threaded chain.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
+#include <CLI/CLI.hpp>
 
 #include "capture/source.h"
 #include "core/config.h"
@@ -30,8 +31,8 @@ void print_table(const std::string& title, const std::vector<StageStats>& stages
   for (const StageStats& s : stages) {
     const TimingSummary t = s.summary();
     sum_mean += t.ms_mean;
-    std::printf("  %-12s %9.3f %9.3f %9.3f %9.3f\n", s.name().c_str(), t.ms_mean, t.ms_p50, t.ms_p95,
-                t.ms_max);
+    std::printf("  %-12s %9.3f %9.3f %9.3f %9.3f\n", s.name().c_str(), t.ms_mean, t.ms_p50,
+                t.ms_p95, t.ms_max);
   }
   std::printf("  %-12s %9.3f   (sum of stage means: %.1f fps if run back to back)\n", "sum",
               sum_mean, sum_mean > 0 ? 1000.0 / sum_mean : 0.0);
@@ -39,22 +40,33 @@ void print_table(const std::string& title, const std::vector<StageStats>& stages
               wall_s > 0 ? static_cast<double>(frames) / wall_s : 0.0);
 }
 
-/// Every stage in turn on one thread, frame by frame.
-/// The first `count` processing stages (all when count is 0).
-std::vector<StageDef> first_stages(Processing& processing, std::size_t count) {
+/// What one benchmark measures.
+struct BenchRun {
+  std::string spec;  ///< recording folder or synth: scene
+  Config config;
+  std::optional<std::size_t> max_frames;  ///< at most this many frames per pass
+  int repeat = 1;                         ///< passes over the source
+  std::size_t stage_count = 0;            ///< the first N processing stages (0 = all)
+  int view_every = 0;  ///< > 0: the mvao stage also builds the window's view products every N
+};
+
+/// A new model with the run's view products, and its first `stage_count` stages (all when 0).
+std::vector<StageDef> first_stages(Processing& processing, const BenchRun& run) {
+  processing.set_view_products(run.view_every > 0, std::max(run.view_every, 1));
   std::vector<StageDef> stages = processing.stages();
-  if (count > 0 && count < stages.size()) stages.resize(count);
+  if (run.stage_count > 0 && run.stage_count < stages.size()) stages.resize(run.stage_count);
   return stages;
 }
 
-int run_serial(const std::string& spec, const Config& config, std::optional<std::size_t> max_frames,
-               int repeat, std::size_t stage_count) {
+/// Every stage in turn on one thread, frame by frame.
+int run_serial(const BenchRun& run) {
+  const std::string& spec = run.spec;
   std::vector<StageStats> stats;
   std::size_t frames = 0, lost = 0;
   double wall_s = 0;
-  for (int r = 0; r < repeat; ++r) {
-    Processing processing(config);  // every pass starts a new model
-    const std::vector<StageDef> stages = first_stages(processing, stage_count);
+  for (int r = 0; r < run.repeat; ++r) {
+    Processing processing(run.config);  // every pass starts a new model
+    const std::vector<StageDef> stages = first_stages(processing, run);
     if (stats.empty()) {
       stats.emplace_back("capture");
       for (const StageDef& s : stages) stats.emplace_back(s.name);
@@ -62,7 +74,7 @@ int run_serial(const std::string& spec, const Config& config, std::optional<std:
     FrameWork frame;
     std::unique_ptr<Source> source = open_source(spec);
     const auto start = Clock::now();
-    for (std::size_t i = 0; !max_frames || i < *max_frames; ++i) {
+    for (std::size_t i = 0; !run.max_frames || i < *run.max_frames; ++i) {
       auto t0 = Clock::now();
       const Status read = source->read(frame.raw);
       if (read.code() == Status::Code::kEndOfStream) break;
@@ -86,19 +98,19 @@ int run_serial(const std::string& spec, const Config& config, std::optional<std:
 }
 
 /// The threaded chain as replay runs it.
-int run_chain(const std::string& spec, const Config& config, std::optional<std::size_t> max_frames,
-              int repeat, std::size_t stage_count) {
+int run_chain(const BenchRun& run) {
+  const std::string& spec = run.spec;
   std::vector<StageStats> all;
   double wall_s = 0;
   std::size_t frames = 0, lost = 0;
-  for (int r = 0; r < repeat; ++r) {
+  for (int r = 0; r < run.repeat; ++r) {
     std::unique_ptr<Source> source = open_source(spec);
     PipelineOptions options;
-    options.max_frames = max_frames;
-    options.queue_capacity = static_cast<std::size_t>(config.pipeline.queue_capacity);
+    options.max_frames = run.max_frames;
+    options.queue_capacity = static_cast<std::size_t>(run.config.pipeline.queue_capacity);
     std::atomic<bool> stop{false};
-    Processing processing(config);
-    PipelineResult result = run_pipeline(*source, first_stages(processing, stage_count), options, stop);
+    Processing processing(run.config);
+    PipelineResult result = run_pipeline(*source, first_stages(processing, run), options, stop);
     if (!result.status.is_ok()) throw Error(result.status.exit_code(), result.status.message());
     if (all.empty()) {
       all = std::move(result.stages);
@@ -117,19 +129,20 @@ int run_chain(const std::string& spec, const Config& config, std::optional<std::
 
 int run(int argc, char** argv) {
   CLI::App app{"aoscan-bench: per-stage timings of the aoscan pipeline on a recording"};
-  std::string spec;
+  BenchRun bench;
   std::string config_file;
   std::vector<std::string> sets;
-  std::optional<std::size_t> max_frames;
   int threads = 1;
-  int repeat = 1;
   bool chain = false;
-  app.add_option("SOURCE", spec, "recording folder or synth: scene")->required();
-  std::size_t stage_count = 0;
-  app.add_option("--frames", max_frames, "at most N frames per pass");
-  app.add_option("--stages", stage_count,
+  app.add_option("SOURCE", bench.spec, "recording folder or synth: scene")->required();
+  app.add_option("--frames", bench.max_frames, "at most N frames per pass");
+  app.add_option("--stages", bench.stage_count,
                  "run only the first N processing stages (1 = read + decode + border outliers)");
-  app.add_option("--repeat", repeat, "passes over the source")->check(CLI::PositiveNumber);
+  app.add_option("--repeat", bench.repeat, "passes over the source")->check(CLI::PositiveNumber);
+  app.add_option("--view-every", bench.view_every,
+                 "the mvao stage also builds the live view's MVAO image every N frames, as with "
+                 "the window open (0 = headless)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--threads", threads, "threads for data-parallel kernels")->capture_default_str();
   app.add_option("--config", config_file, "configuration file");
   app.add_option("--set", sets, "KEY=VALUE override");
@@ -137,11 +150,10 @@ int run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     configure_logging("error");
-    const Config config = load_config(config_file, sets);
+    bench.config = load_config(config_file, sets);
     tbb::global_control budget(tbb::global_control::max_allowed_parallelism,
                                static_cast<std::size_t>(threads));
-    return chain ? run_chain(spec, config, max_frames, repeat, stage_count)
-                 : run_serial(spec, config, max_frames, repeat, stage_count);
+    return chain ? run_chain(bench) : run_serial(bench);
   } catch (const Error& e) {
     std::fprintf(stderr, "aoscan-bench: error: %s\n", e.what());
     return static_cast<int>(e.code());
@@ -151,4 +163,6 @@ int run(int argc, char** argv) {
 }  // namespace
 }  // namespace aoscan
 
-int main(int argc, char** argv) { return aoscan::run(argc, argv); }
+int main(int argc, char** argv) {
+  return aoscan::run(argc, argv);
+}
