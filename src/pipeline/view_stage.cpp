@@ -2,6 +2,7 @@
 /// @brief The view stage: ViewFrames for the window and the snapshots.
 #include "pipeline/view_stage.h"
 
+#include <algorithm>
 #include <limits>
 #include <utility>
 
@@ -14,28 +15,6 @@ using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kFpsWindow = 30;  ///< frames over which the HUD's fps is measured
 constexpr double kMsSmoothing = 0.2;    ///< weight of the newest frame in the HUD's stage times
-
-/// `dst` = `src` at `width` x `height`: copied, or enlarged by pixel replication when `src` is an
-/// integer fraction of that size (the model raycast runs at a pyramid level of the frame), else
-/// `fill` (e.g. no raycast for a lost frame). Buffers reused.
-template <class T>
-void copy_or_fill(const Image<T>& src, int width, int height, const T& fill, Image<T>& dst) {
-  if (src.width() == width && src.height() == height) {
-    dst = src;
-    return;
-  }
-  const int factor = src.width() > 0 ? width / src.width() : 0;
-  if (factor < 2 || src.width() * factor != width || src.height() * factor != height) {
-    dst.resize(width, height, fill);
-    return;
-  }
-  dst.resize(width, height, fill);
-  for (int y = 0; y < height; ++y) {
-    const T* in = src.row(y / factor);
-    T* out = dst.row(y);
-    for (int x = 0; x < width; ++x) out[x] = in[x / factor];
-  }
-}
 
 }  // namespace
 
@@ -63,12 +42,12 @@ void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
   const RaycastResult* raycast = frame.raycast.get();
   static const Image<float> kNoFloat;
   static const Image<Eigen::Vector3f> kNoVector;
-  copy_or_fill(raycast ? raycast->depth_m : kNoFloat, K.width, K.height, 0.0f, view.depth_m);
-  copy_or_fill(raycast ? raycast->maps.normals : kNoVector, K.width, K.height,
-               Eigen::Vector3f(Eigen::Vector3f::Zero()), view.normals);
-  copy_or_fill(frame.ssao, K.width, K.height, nan, view.ssao);
-  copy_or_fill(frame.mvao, K.width, K.height, nan, view.mvao);
-  copy_or_fill(frame.pre.depth_m, K.width, K.height, 0.0f, view.raw_depth_m);
+  fit_image(raycast ? raycast->depth_m : kNoFloat, K.width, K.height, 0.0f, view.depth_m);
+  fit_image(raycast ? raycast->maps.normals : kNoVector, K.width, K.height,
+            Eigen::Vector3f(Eigen::Vector3f::Zero()), view.normals);
+  fit_image(frame.ssao, K.width, K.height, nan, view.ssao);
+  fit_image(frame.mvao, K.width, K.height, nan, view.mvao);
+  fit_image(frame.pre.depth_m, K.width, K.height, 0.0f, view.raw_depth_m);
   if (frame.fusion.status == TrackingStatus::kLost)
     view.tracking_state = "lost";
   else if (frame.integration_paused)
