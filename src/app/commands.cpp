@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "capture/devices.h"
+#include "capture/output_file.h"
 #include "capture/recorder.h"
 #include "capture/source.h"
 #include "core/config.h"
@@ -54,6 +55,7 @@ ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_reques
     std::fprintf(stderr,
                  "aoscan: warning: %zu frames dropped: the disk could not keep up with %s\n",
                  stats.frames_dropped, source->name().c_str());
+  if (!stats.stopped_by.is_ok()) throw_for_status(stats.stopped_by);  // e.g. unplugged: exit 4
   if (stats.frames_written == 0) throw input_error(args.source + ": no usable frame to record");
   return ExitCode::kOk;
 }

@@ -75,8 +75,8 @@ RecordStats record_source(Source& source, const std::string& dir,
       continue;
     }
     if (!status.is_ok()) {
-      finish();
-      throw_for_status(status);
+      stats.stopped_by = status;
+      break;
     }
 
     // The recording holds one calibration: the first frame may set it, later ones must match.
@@ -126,6 +126,7 @@ RecordStats record_source(Source& source, const std::string& dir,
     ++stats.frames_written;
   }
   finish();
+  if (!camera_written && !stats.stopped_by.is_ok()) throw_for_status(stats.stopped_by);
   if (!camera_written)
     throw input_error(source.name() + ": no frame with a valid calibration to write " +
                       camera_path);

@@ -17,6 +17,9 @@ struct RecordStats {
   std::size_t frames_corrupt = 0;  ///< corrupt frames the source reported (skipped)
   std::size_t frames_dropped =
       0;  ///< live recording only: frames lost because the disk fell behind
+  /// The source's error that ended the recording (bad input, device lost, internal), after every
+  /// frame before it was written; ok when the source ended, was stopped or max_frames was reached.
+  Status stopped_by = Status::ok();
 };
 
 /// Reads `source` until it ends, `max_frames` frames are written, or `*stop_requested` becomes
@@ -29,8 +32,9 @@ struct RecordStats {
 /// Each frame's PNG is complete before its depth.txt and groundtruth.txt lines are flushed, so the
 /// folder is a valid recording at any moment. Corrupt frames are skipped and counted; frames whose
 /// calibration differs from camera.json's are counted as corrupt too. A bad_input / device_lost /
-/// internal status closes the files and throws input_error / device_error / Error with the
-/// source's message. Throws usage_error when `dir` already holds a depth.txt, Error (exit code 1)
+/// internal status ends the recording: the files are closed and the status is returned in
+/// `stopped_by` (throw_for_status() turns it into the matching Error), or thrown when no frame
+/// could be written. Throws usage_error when `dir` already holds a depth.txt, Error (exit code 1)
 /// when a file cannot be written.
 RecordStats record_source(Source& source, const std::string& dir,
                           std::optional<std::size_t> max_frames,

@@ -98,6 +98,9 @@ TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
     if (!line.empty() && line[0] != '#') ++frames;
   EXPECT_EQ(frames, 12);
   EXPECT_TRUE(fs::exists(out / "camera.json"));
+  // What was kept is said before the error that ended it.
+  EXPECT_NE(r.err.find("recorded 12 frames to"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("stopped delivering frames"), std::string::npos) << r.err;
   const CliRun limited =
       run(fakenect_env(dump), "record freenect '" + (dir / "five").string() + "' --frames 5", dir);
   EXPECT_EQ(limited.exit_code, 0) << limited.err;

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "capture/output_file.h"
 #include "capture/tum_source.h"
 #include "io/ply.h"
 #include "io/scratch_dir.h"
@@ -184,24 +185,29 @@ TEST(Recorder, WithoutGroundTruthOrMesh) {
 TEST(Recorder, StreamErrorsEndTheRecordingWithAValidFolder) {
   ScratchDir scratch;
   FakeSource bad(3, {1}, Status::bad_input("fake: file vanished"));
-  try {
-    record_source(bad, scratch.file("bad"), std::nullopt, nullptr);
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::kBadInput);
-    EXPECT_STREQ(e.what(), "fake: file vanished");
-  }
+  const RecordStats b = record_source(bad, scratch.file("bad"), std::nullopt, nullptr);
+  EXPECT_EQ(b.stopped_by.code(), Status::Code::kBadInput);
+  EXPECT_EQ(b.stopped_by.message(), "fake: file vanished");
+  EXPECT_EQ(b.frames_written, 2u);
+  EXPECT_EQ(b.frames_corrupt, 1u);
   expect_recording(scratch.file("bad"), {0, 2}, true);
   EXPECT_EQ(read_trajectory(scratch.file("bad/groundtruth.txt")).size(), 2u);
 
   FakeSource lost(2, {}, Status::device_lost("fake: unplugged"));
+  const RecordStats l = record_source(lost, scratch.file("lost"), std::nullopt, nullptr);
+  EXPECT_EQ(l.stopped_by.code(), Status::Code::kDeviceLost);
+  EXPECT_EQ(l.frames_written, 2u);
   try {
-    record_source(lost, scratch.file("lost"), std::nullopt, nullptr);
-    ADD_FAILURE() << "no error";
+    throw_for_status(l.stopped_by);
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ExitCode::kDevice);
   }
   expect_recording(scratch.file("lost"), {0, 1}, true);
+
+  FakeSource none(0, {}, Status::device_lost("fake: unplugged at once"));
+  const RecordStats n = record_source(none, scratch.file("none"), std::nullopt, nullptr);
+  EXPECT_EQ(n.frames_written, 0u);
+  EXPECT_EQ(n.stopped_by.code(), Status::Code::kDeviceLost);
 }
 
 /// `text` without its `#` comment lines.
