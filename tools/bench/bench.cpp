@@ -58,6 +58,14 @@ std::vector<StageDef> first_stages(Processing& processing, const BenchRun& run) 
   return stages;
 }
 
+/// Tracking losses (when the track stage ran) and the peak RSS, under the table.
+void print_footer(const std::vector<StageStats>& stages, std::size_t frames_lost) {
+  const bool tracked = std::any_of(stages.begin(), stages.end(),
+                                   [](const StageStats& s) { return s.name() == "track"; });
+  if (tracked) std::printf("  tracking lost on %zu frames\n", frames_lost);
+  std::printf("  peak RSS %.0f MB\n", peak_rss_mb());
+}
+
 /// Every stage in turn on one thread, frame by frame.
 int run_serial(const BenchRun& run) {
   const std::string& spec = run.spec;
@@ -93,7 +101,7 @@ int run_serial(const BenchRun& run) {
     lost += processing.frames_tracking_lost();
   }
   print_table(spec + " (serial, one thread)", stats, wall_s, frames);
-  std::printf("  tracking lost on %zu frames; peak RSS %.0f MB\n", lost, peak_rss_mb());
+  print_footer(stats, lost);
   return 0;
 }
 
@@ -123,7 +131,7 @@ int run_chain(const BenchRun& run) {
     lost += processing.frames_tracking_lost();
   }
   print_table(spec + " (threaded chain)", all, wall_s, frames);
-  std::printf("  tracking lost on %zu frames; peak RSS %.0f MB\n", lost, peak_rss_mb());
+  print_footer(all, lost);
   return 0;
 }
 
