@@ -252,10 +252,11 @@ SessionResult run_session(Source& source, const SessionOptions& options,
     throw usage_error("--out " + options.out_dir + ": cannot create folder: " + ec.message());
   if (options.save_volume) {  // fail now, not after the whole run
     const std::filesystem::path vdb = std::filesystem::path(options.out_dir) / "volume.vdb";
-    std::ofstream probe(vdb, std::ios::binary | std::ios::app);
-    if (!probe)
+    const bool existed = std::filesystem::exists(vdb, ec);
+    if (!std::ofstream(vdb, std::ios::binary | std::ios::app))
       throw usage_error("--out " + options.out_dir + ": cannot write " + vdb.string() + ": " +
                         std::strerror(errno));
+    if (!existed) std::filesystem::remove(vdb, ec);  // a check only: no empty file left behind
   }
 
   const int threads = options.threads > 0

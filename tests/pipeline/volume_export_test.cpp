@@ -167,5 +167,18 @@ TEST(VolumeExport, UnwritableVolumeIsAUsageErrorBeforeTheRun) {
   EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "stats.json"));  // nothing was run
 }
 
+TEST(VolumeExport, ALaterSetUpErrorLeavesNoEmptyVolume) {
+  std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
+  SessionOptions options;
+  options.out_dir = fresh_dir("later_error").string();
+  options.save_volume = true;
+  const fs::path in_the_way = fresh_dir("later_error_snapshots") / "a_file";
+  std::ofstream(in_the_way) << "not a folder\n";
+  options.snapshot_dir = in_the_way.string();  // the snapshot folder cannot be made
+  std::atomic<bool> stop{false};
+  EXPECT_THROW(run_session(*source, options, stop), Error);
+  EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "volume.vdb"));
+}
+
 }  // namespace
 }  // namespace aoscan
