@@ -101,6 +101,8 @@ struct GlWindow::Impl {
     self.last_y = y;
   }
   static void on_scroll(GLFWwindow* window, double, double dy) { of(window).events.scroll += dy; }
+  static void on_refresh(GLFWwindow* window) { of(window).events.damaged = true; }
+  static void on_resize(GLFWwindow* window, int, int) { of(window).events.damaged = true; }
 };
 
 std::unique_ptr<GlWindow> GlWindow::create(const WindowOptions& options, std::string& error) {
@@ -156,6 +158,8 @@ std::unique_ptr<GlWindow> GlWindow::create(const WindowOptions& options, std::st
   glfwSetMouseButtonCallback(window, Impl::on_button);
   glfwSetCursorPosCallback(window, Impl::on_cursor);
   glfwSetScrollCallback(window, Impl::on_scroll);
+  glfwSetWindowRefreshCallback(window, Impl::on_refresh);
+  glfwSetFramebufferSizeCallback(window, Impl::on_resize);
   return std::unique_ptr<GlWindow>(new GlWindow(std::move(impl)));
 }
 

@@ -28,6 +28,8 @@ struct WindowEvents {
   double drag_dy_px = 0.0;
   double scroll = 0.0;           ///< wheel steps, positive away from the user
   bool close_requested = false;  ///< the user closed the window (window manager's close)
+  /// The window was exposed or resized: what it shows must be drawn again.
+  bool damaged = false;
   /// The connection to the display broke (X server gone, client killed): nothing more can be
   /// drawn; the window should be dropped.
   bool display_lost = false;

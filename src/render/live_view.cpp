@@ -79,11 +79,17 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
         orbit_moved_by_user = true;
       }
 
+      bool changed = !events.keys.empty() || events.drag_dx_px != 0.0 || events.drag_dy_px != 0.0 ||
+                     events.scroll != 0.0 || events.damaged;
       std::shared_ptr<const ViewFrame> latest = feed ? feed() : nullptr;
       if (latest && latest != shown) {
         renderer.upload(*latest);
         shown = std::move(latest);
+        changed = true;
       }
+      if (!changed && result.redraws > 0 &&
+          std::chrono::duration<double>(Clock::now() - last_draw).count() < options.idle_redraw_s)
+        continue;
       if (shown && shown->surface && shown->surface.get() != fitted_surface &&
           !orbit_moved_by_user) {
         orbit = fit_orbit(*shown->surface);

@@ -32,6 +32,10 @@ struct LiveViewOptions {
   View initial_view = View::kShaded;
   int hud_scale = 2;            ///< HUD font magnification
   double max_redraw_hz = 60.0;  ///< the loop waits for input between redraws at most this often
+  /// The window is drawn again when a new frame arrives, on input or damage, and otherwise every
+  /// idle_redraw_s (0: on every pass of the loop). Redrawing an unchanged picture would only take
+  /// CPU from fusion (the software renderer shares its cores).
+  double idle_redraw_s = 0.5;
   /// Test hooks: replacement shader sources, and a redraw count after which the loop returns
   /// kStopped (0 = no limit).
   ShaderOverrides shader_overrides;

@@ -301,6 +301,7 @@ TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
   options.window.width = 320;
   options.window.height = 240;
   options.max_redraw_hz = 0;  // no waiting between redraws
+  options.idle_redraw_s = 0;  // and a redraw on every pass, though the frame stays the same
   options.max_redraws = 5;
   for (int v = 0; v < kViewCount; ++v) {
     options.initial_view = static_cast<View>(v);
@@ -334,6 +335,34 @@ TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
   render.join();
   EXPECT_EQ(result.outcome, LiveViewResult::Outcome::kStopped) << result.message;
   EXPECT_GT(result.redraws, 0);
+}
+
+TEST_F(LiveViewTest, RedrawsOnlyForNewFrames) {
+  auto first = std::make_shared<ViewFrame>(testing::sphere_wall_frame(64, 48));
+  auto second = std::make_shared<ViewFrame>(*first);
+  ViewCommandQueue commands;
+  std::atomic<bool> stop{false};
+  LiveViewOptions options;
+  options.window.visible = false;
+  options.window.width = 320;
+  options.window.height = 240;
+  options.max_redraw_hz = 500;
+  options.idle_redraw_s = 60;  // longer than the test
+  // 40 passes with the first frame, 40 with the second, then stop: one redraw for each frame
+  // (and one more if the window manager reports damage, e.g. the first expose).
+  int calls = 0;
+  const LiveViewResult r = run_view(
+      options,
+      [&]() -> std::shared_ptr<const ViewFrame> {
+        ++calls;
+        if (calls >= 80) stop = true;
+        return calls <= 40 ? first : second;
+      },
+      commands, stop);
+  EXPECT_EQ(r.outcome, LiveViewResult::Outcome::kStopped) << r.message;
+  EXPECT_GE(calls, 80);
+  EXPECT_GE(r.redraws, 2);
+  EXPECT_LE(r.redraws, 3);
 }
 
 TEST_F(LiveViewTest, BrokenShaderFallsBackHeadless) {
