@@ -3,7 +3,6 @@
 #include "pipeline/view_stage.h"
 
 #include <algorithm>
-#include <limits>
 #include <utility>
 
 #include "core/log.h"
@@ -33,21 +32,19 @@ double ViewStage::recent_fps(Clock::time_point now) {
 }
 
 void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
-  const Intrinsics& K = frame.raw.intrinsics;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   view.sequence = frame.raw.sequence;
   view.timestamp_s = frame.raw.timestamp_s;
   view.T_world_camera = frame.fusion.T_world_camera;
-  view.intrinsics = K;
+  view.intrinsics = frame.raw.intrinsics;
   const RaycastResult* raycast = frame.raycast.get();
+  // At the model raycast's resolution (the view enlarges them): copies into reused buffers.
   static const Image<float> kNoFloat;
   static const Image<Eigen::Vector3f> kNoVector;
-  fit_image(raycast ? raycast->depth_m : kNoFloat, K.width, K.height, 0.0f, view.depth_m);
-  fit_image(raycast ? raycast->maps.normals : kNoVector, K.width, K.height,
-            Eigen::Vector3f(Eigen::Vector3f::Zero()), view.normals);
-  fit_image(frame.ssao, K.width, K.height, nan, view.ssao);
-  fit_image(frame.mvao, K.width, K.height, nan, view.mvao);
-  fit_image(frame.pre.depth_m, K.width, K.height, 0.0f, view.raw_depth_m);
+  view.depth_m = raycast ? raycast->depth_m : kNoFloat;
+  view.normals = raycast ? raycast->maps.normals : kNoVector;
+  view.ssao = frame.ssao;
+  view.mvao = frame.mvao;
+  view.raw_depth_m = frame.pre.depth_m;
   if (frame.fusion.status == TrackingStatus::kLost)
     view.tracking_state = "lost";
   else if (frame.integration_paused)

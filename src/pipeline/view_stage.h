@@ -4,7 +4,6 @@
 /// its own stage thread so that neither ever runs on the track/ssao/mvao threads.
 #pragma once
 
-#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -24,31 +23,6 @@
 #include "render/view_frame.h"
 
 namespace aoscan {
-
-/// `dst` = `src` at `width` x `height`: copied, or enlarged by pixel replication when `src` is an
-/// integer fraction of that size (the model raycast runs at a pyramid level of the frame), else
-/// `fill` (e.g. no raycast for a lost frame). Buffers reused.
-template <class T>
-void fit_image(const Image<T>& src, int width, int height, const T& fill, Image<T>& dst) {
-  if (src.width() == width && src.height() == height) {
-    dst = src;
-    return;
-  }
-  const int factor = src.width() > 0 ? width / src.width() : 0;
-  if (factor < 2 || src.width() * factor != width || src.height() * factor != height) {
-    dst.resize(width, height, fill);
-    return;
-  }
-  dst.resize(width, height, fill);  // every pixel is written below
-  for (int sy = 0; sy < src.height(); ++sy) {
-    const T* in = src.row(sy);
-    T* out = dst.row(sy * factor);
-    for (int sx = 0; sx < src.width(); ++sx)
-      for (int k = 0; k < factor; ++k) *out++ = in[sx];
-    for (int k = 1; k < factor; ++k)  // the row's copies below it
-      std::copy(dst.row(sy * factor), dst.row(sy * factor) + width, dst.row(sy * factor + k));
-  }
-}
 
 struct ViewStageOptions {
   /// Names for FrameWork::stage_ms in the HUD, capture first (e.g. capture, preprocess, ...).

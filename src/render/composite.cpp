@@ -203,34 +203,36 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
     }
     return;
   }
-  const auto fits = [&](const auto& image) {
-    return image.width() == width && image.height() == height;
-  };
-  const bool depth_ok = fits(frame.depth_m);
-  const bool normals_ok = depth_ok && fits(frame.normals);
-  const Image<float>& depth_source = fits(frame.raw_depth_m) ? frame.raw_depth_m : frame.depth_m;
-  const bool depth_source_ok = fits(depth_source);
-  const bool ssao_ok = fits(frame.ssao);
-  const bool mvao_ok = fits(frame.mvao);
+  // Frame pixels per image pixel, 0 = no data. MVAO and normals are read at the depth's pixel.
+  const int model = image_scale(frame.depth_m, width, height);
+  const int normals = model > 0 && image_scale(frame.normals, width, height) == model ? model : 0;
+  const int mvao = model > 0 && image_scale(frame.mvao, width, height) == model ? model : 0;
+  const int ssao = image_scale(frame.ssao, width, height);
+  const int raw = image_scale(frame.raw_depth_m, width, height);
+  const Image<float>& depth_source = raw > 0 ? frame.raw_depth_m : frame.depth_m;
+  const int depth_source_scale = raw > 0 ? raw : model;
   const float kNoData = std::numeric_limits<float>::quiet_NaN();
   const Eigen::Vector3f kNoNormal = Eigen::Vector3f::Zero();
   for (int y = 0; y < height; ++y) {
     Rgb8* dst = out.row(y);
     for (int x = 0; x < width; ++x) {
-      const float d = depth_ok ? frame.depth_m(x, y) : 0.0f;
-      const Eigen::Vector3f& n = normals_ok ? frame.normals(x, y) : kNoNormal;
+      const float d = model > 0 ? frame.depth_m(x / model, y / model) : 0.0f;
+      const Eigen::Vector3f& n = normals > 0 ? frame.normals(x / normals, y / normals) : kNoNormal;
       switch (view) {
         case View::kShaded:
-          dst[x] = shade_mvao(d, n, mvao_ok ? frame.mvao(x, y) : kNoData, style);
+          dst[x] = shade_mvao(d, n, mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
           break;
         case View::kSsao:
-          dst[x] = shade_ssao(ssao_ok ? frame.ssao(x, y) : kNoData, style);
+          dst[x] = shade_ssao(ssao > 0 ? frame.ssao(x / ssao, y / ssao) : kNoData, style);
           break;
         case View::kNormals:
           dst[x] = shade_normal(d, n, style);
           break;
         case View::kDepth:
-          dst[x] = shade_depth(depth_source_ok ? depth_source(x, y) : 0.0f, style);
+          dst[x] = shade_depth(depth_source_scale > 0
+                                   ? depth_source(x / depth_source_scale, y / depth_source_scale)
+                                   : 0.0f,
+                               style);
           break;
         case View::kOrbit:
           break;

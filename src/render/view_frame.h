@@ -52,8 +52,11 @@ struct HudStats {
   bool integration_paused = false;
 };
 
-/// One fused frame as the renderer sees it. Every image has the size of `intrinsics` (the raw depth
-/// may be empty when not published). Camera frame: x right, y down, z forward (metres).
+/// One fused frame as the renderer sees it. The images cover the frame of `intrinsics`, each at the
+/// frame's resolution or at an integer fraction of it (the model raycast and what is computed on
+/// it run at a pyramid level: a 320x240 raycast of a 640x480 frame); views enlarge them by pixel
+/// replication. depth_m, normals and mvao share one size. An image of another size, or empty,
+/// shows as no data. Camera frame: x right, y down, z forward (metres).
 struct ViewFrame {
   std::uint64_t sequence = 0;  ///< source frame index
   double timestamp_s = 0.0;    ///< source timestamp (s)
@@ -70,5 +73,15 @@ struct ViewFrame {
   /// view; null or empty until the pipeline exports one. Shared: publishing it is cheap.
   std::shared_ptr<const TriangleMesh> surface;
 };
+
+/// Frame pixels per pixel of `image` along each axis when it covers a `width` x `height` frame at
+/// an integer fraction of that resolution (1: the same size, 2: half), or 0 when it does not
+/// (empty, or any other size). Pixel (x, y) of the frame is image pixel (x / scale, y / scale).
+template <class T>
+int image_scale(const Image<T>& image, int width, int height) {
+  if (image.width() <= 0 || image.height() <= 0 || width % image.width() != 0) return 0;
+  const int scale = width / image.width();
+  return image.height() * scale == height ? scale : 0;
+}
 
 }  // namespace aoscan

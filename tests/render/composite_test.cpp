@@ -136,6 +136,46 @@ TEST(Composite, MissingOrMismatchedImagesAreNoData) {
   }
 }
 
+TEST(Composite, FractionalResolutionImagesAreEnlargedByReplication) {
+  const ViewStyle style;
+  for (int scale : {2, 4}) {
+    const ViewFrame small = testing::model_at_fraction(testing::sphere_wall_frame(160, 120), scale);
+    const ViewFrame full = testing::model_replicated(small);
+    ASSERT_EQ(full.depth_m.width(), 160);
+    for (View v : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+      Image<Rgb8> a, b;
+      composite_view(small, v, a, style);
+      composite_view(full, v, b, style);
+      ASSERT_EQ(a.width(), 160);
+      ASSERT_EQ(a.height(), 120);
+      int differ = 0;
+      for (int y = 0; y < 120; ++y)
+        for (int x = 0; x < 160; ++x) differ += a(x, y) != b(x, y);
+      EXPECT_EQ(differ, 0) << view_name(v) << " at 1/" << scale;
+    }
+  }
+  // An MVAO image of another size than the depth's is no data (shaded as open), not misread.
+  ViewFrame odd = testing::model_at_fraction(testing::sphere_wall_frame(160, 120), 2);
+  ViewFrame no_mvao = odd;
+  no_mvao.mvao = Image<float>();
+  odd.mvao.resize(160, 120, 0.0f);  // full size, while the depth is half
+  Image<Rgb8> a, b;
+  composite_view(odd, View::kShaded, a, style);
+  composite_view(no_mvao, View::kShaded, b, style);
+  EXPECT_EQ(a(80, 60), b(80, 60));
+  EXPECT_NE(a(80, 60), style.background);
+}
+
+TEST(Composite, ImageScale) {
+  EXPECT_EQ(image_scale(Image<float>(640, 480), 640, 480), 1);
+  EXPECT_EQ(image_scale(Image<float>(320, 240), 640, 480), 2);
+  EXPECT_EQ(image_scale(Image<float>(160, 120), 640, 480), 4);
+  EXPECT_EQ(image_scale(Image<float>(320, 480), 640, 480), 0);
+  EXPECT_EQ(image_scale(Image<float>(300, 225), 640, 480), 0);
+  EXPECT_EQ(image_scale(Image<float>(1280, 960), 640, 480), 0);
+  EXPECT_EQ(image_scale(Image<float>(), 640, 480), 0);
+}
+
 TEST(Composite, ViewCycle) {
   View v = View::kShaded;
   const char* expected[] = {"ssao", "normals", "depth", "orbit", "shaded"};

@@ -162,6 +162,22 @@ TEST_F(GlTest, ImageViewsMatchTheCpuComposite) {
   EXPECT_NE(shaded(35, 15), style.background);  // unobserved MVAO shades as open
 }
 
+TEST_F(GlTest, HalfResolutionModelImagesMatchTheCpuComposite) {
+  // The pipeline publishes the model raycast (and its SSAO and MVAO) at half the frame's size.
+  const ViewFrame frame = testing::model_at_fraction(testing::sphere_wall_frame(160, 120), 2);
+  ViewStyle style;
+  for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+    Image<Rgb8> cpu;
+    composite_view(frame, view, cpu, style);
+    const Image<Rgb8> gpu = render_gl(frame, view, style);
+    const Comparison c = compare(cpu, gpu);
+    std::printf("[ info ] %-8s (half) matching %.5f, max diff %d\n", view_name(view),
+                c.matching_share, c.max_diff);
+    EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
+    EXPECT_LE(c.max_diff, 8) << view_name(view);
+  }
+}
+
 TEST_F(GlTest, ExactGreyAndNormalColours) {
   ViewFrame frame;
   frame.intrinsics.width = 8;

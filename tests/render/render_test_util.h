@@ -73,6 +73,40 @@ inline ViewFrame sphere_wall_frame(int width = 160, int height = 120) {
   return f;
 }
 
+/// `f` with its model images (depth, normals, SSAO, MVAO) at 1/`scale` of the frame's resolution,
+/// as the pipeline publishes a pyramid-level raycast: every `scale`-th pixel of each row and
+/// column. The raw depth stays at full resolution.
+inline ViewFrame model_at_fraction(const ViewFrame& f, int scale) {
+  ViewFrame out = f;
+  const auto shrink = [scale](const auto& full, auto& small) {
+    small.resize(full.width() / scale, full.height() / scale, full(0, 0));  // all overwritten
+    for (int y = 0; y < small.height(); ++y)
+      for (int x = 0; x < small.width(); ++x) small(x, y) = full(x * scale, y * scale);
+  };
+  shrink(f.depth_m, out.depth_m);
+  shrink(f.normals, out.normals);
+  shrink(f.ssao, out.ssao);
+  shrink(f.mvao, out.mvao);
+  return out;
+}
+
+/// `small` (from model_at_fraction) with its model images enlarged back to the frame's size by
+/// pixel replication: what every view must show for it.
+inline ViewFrame model_replicated(const ViewFrame& small) {
+  ViewFrame out = small;
+  const int scale = small.intrinsics.width / small.depth_m.width();
+  const auto grow = [scale](const auto& part, auto& full) {
+    full.resize(part.width() * scale, part.height() * scale, part(0, 0));  // all overwritten
+    for (int y = 0; y < full.height(); ++y)
+      for (int x = 0; x < full.width(); ++x) full(x, y) = part(x / scale, y / scale);
+  };
+  grow(small.depth_m, out.depth_m);
+  grow(small.normals, out.normals);
+  grow(small.ssao, out.ssao);
+  grow(small.mvao, out.mvao);
+  return out;
+}
+
 /// Points on a sphere (centre `c`, radius `r`) with outward normals and AO = 0.3 + 0.7 (up to
 /// 1) depending on height, `n` x `n` latitude-longitude samples.
 inline std::shared_ptr<TriangleMesh> sphere_points(const Eigen::Vector3f& c, float r, int n) {
