@@ -304,6 +304,14 @@ class LiveViewTest : public GlTest {
     GlTest::SetUp();
     window_.reset();  // the live view makes its own window (one GLFW user at a time)
   }
+  /// Live view options with a hidden 320 x 240 window.
+  static LiveViewOptions hidden_window() {
+    LiveViewOptions options;
+    options.window.visible = false;
+    options.window.width = 320;
+    options.window.height = 240;
+    return options;
+  }
 };
 
 TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
@@ -312,10 +320,7 @@ TEST_F(LiveViewTest, RedrawsTheFeedUntilStopped) {
   std::shared_ptr<const ViewFrame> published = frame;
   ViewCommandQueue commands;
   std::atomic<bool> stop{false};
-  LiveViewOptions options;
-  options.window.visible = false;
-  options.window.width = 320;
-  options.window.height = 240;
+  LiveViewOptions options = hidden_window();
   options.max_redraw_hz = 0;  // no waiting between redraws
   options.idle_redraw_s = 0;  // and a redraw on every pass, though the frame stays the same
   options.max_redraws = 5;
@@ -358,10 +363,7 @@ TEST_F(LiveViewTest, RedrawsOnlyForNewFrames) {
   auto second = std::make_shared<ViewFrame>(*first);
   ViewCommandQueue commands;
   std::atomic<bool> stop{false};
-  LiveViewOptions options;
-  options.window.visible = false;
-  options.window.width = 320;
-  options.window.height = 240;
+  LiveViewOptions options = hidden_window();
   options.max_redraw_hz = 500;
   options.idle_redraw_s = 60;  // longer than the test
   // 40 passes with the first frame, 40 with the second, then stop: one redraw for each frame
