@@ -8,7 +8,7 @@ packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-de
           libopenvdb-dev libboost-iostreams-dev     # volume.vdb (--save-volume)
           libopenni2-dev libfreenect-dev             # live cameras (libusb comes with libfreenect)
           libglfw3-dev libglm-dev libgl-dev          # live view: GLFW window, GLM, GL headers
-          libx11-dev)                                # live view: surviving a lost X display
+          libx11-dev libxrandr-dev)                  # live view: surviving a lost X display (glfw3native.h)
 if [[ "${1:-}" == "--tests" ]]; then
   # The GL tests run on a virtual X server with Mesa's software OpenGL.
   packages+=(libgtest-dev xvfb xauth libgl1-mesa-dri libegl-mesa0 libglx-mesa0)
