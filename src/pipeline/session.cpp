@@ -6,6 +6,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -148,7 +149,12 @@ class WindowThread {
     thread_ = std::thread([this, options, &view, &commands, on_unavailable] {
       // The window yields the CPU to fusion: a lower priority for this thread and the threads
       // the GL driver starts from it (software GL such as llvmpipe renders on the CPU).
-      if (setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWindowNice) != 0)
+      // Relative to the pipeline's own nice value, so that it stays below the pipeline when
+      // aoscan itself runs under nice.
+      const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
+      errno = 0;
+      const int own_nice = getpriority(PRIO_PROCESS, tid);
+      if (errno != 0 || setpriority(PRIO_PROCESS, tid, std::min(own_nice + kWindowNice, 19)) != 0)
         spdlog::debug("live view: could not lower the window thread's priority");
       const ViewFeed feed = [&view] {
         auto latest = view.mailbox().latest();
@@ -294,7 +300,8 @@ SessionResult run_session(Source& source, const SessionOptions& options,
     view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
     processing.set_view_products(true, options.snapshot_dir.empty() ? kWindowProductsEvery : 1);
     ViewStage* stage = view.get();
-    stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
+    stages.push_back(
+        {"view", [stage](FrameWork& frame) { return stage->process(frame); }, StagePriority::kLow});
   }
 
   ViewCommandQueue own_commands;
