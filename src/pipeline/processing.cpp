@@ -20,7 +20,8 @@ std::vector<StageDef> Processing::stages() {
   return {
       {"preprocess", [this](FrameWork& frame) { return preprocess(frame); }},
       {"filter", [this](FrameWork& frame) { return filter(frame); }},
-      {"track", [this](FrameWork& frame) { return track(frame); }},
+      // The model's one writer and the chain's longest stage: its loops come first.
+      {"track", [this](FrameWork& frame) { return track(frame); }, StagePriority::kHigh},
       {"ssao", [this](FrameWork& frame) { return ssao(frame); }},
       {"mvao", [this](FrameWork& frame) { return mvao(frame); }},
   };
