@@ -179,8 +179,15 @@ struct AoConfig {
   /// Coverage weight (in the spirit of the paper's border weight w_b, Eq. 12): in mvao mode a
   /// pixel's weight w_d * w_n is multiplied by coverage^coverage_power, coverage = the share of
   /// its SSAO samples that fell inside the image on valid pixels (samples off the image or in
-  /// holes count as open, so such a pixel's AO is too light). 0 = off.
-  double coverage_power = 0.0;
+  /// holes count as open, so such a pixel's AO is too light). 0 = off. 4: noisy corner through the
+  /// pipeline r 0.862 -> 0.865 (1: 0.864); see BENCHMARKS.md.
+  double coverage_power = 4.0;
+  /// The mesh export reads the grid through cells of mesh_cell_factor^3 grid cells (their sums
+  /// added, i.e. the AO averaged over mesh_cell_factor * cell size) with trilinear interpolation
+  /// between those; the live view keeps the grid's own cells. 1 = the grid's cells. 4 (3.1 cm
+  /// with the default grid, a third of r_s): noisy corner r 0.865 -> 0.890 (3: 0.886), the fused
+  /// surface's small bumps average out; see BENCHMARKS.md.
+  int mesh_cell_factor = 4;
 
   template <class V>
   void visit(V& v) {
@@ -214,6 +221,9 @@ struct AoConfig {
              "mvao weight *= (share of SSAO samples inside the image on valid pixels)^power; "
              "0 = off",
              0.0, 16.0);
+    v.integer("mesh_cell_factor", mesh_cell_factor,
+              "mesh AO reads the grid through cells of factor^3 grid cells (1 = the grid's cells)",
+              1, 64);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
   }

@@ -168,6 +168,7 @@ TEST(Ssao, CoverageWeightLowersPixelsWhoseDiskLeavesTheImage) {
   const PointMaps maps = open_wall();  // the wall fills the image
   Image<float> ao, w, w_off;
   AoConfig c = config_for(AoEstimator::kAlchemy, 1);
+  c.coverage_power = 0.0;
   compute_ssao(maps, c, 0, ao, w_off);
   c.coverage_power = 2.0;
   compute_ssao(maps, c, 0, ao, w);
