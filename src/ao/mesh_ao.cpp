@@ -92,6 +92,12 @@ class NearestCells {
 }  // namespace
 
 std::size_t apply_grid_ao(const MvaoGrid& grid, TriangleMesh& mesh) {
+  if (grid.mesh_cell_factor() > 1)
+    return apply_grid_ao_cells(grid.coarsened(grid.mesh_cell_factor()), mesh);
+  return apply_grid_ao_cells(grid, mesh);
+}
+
+std::size_t apply_grid_ao_cells(const MvaoGrid& grid, TriangleMesh& mesh) {
   const std::size_t n = mesh.vertices.size();
   mesh.quality.assign(n, 1.0f);
   if (n == 0) return 0;

@@ -44,10 +44,40 @@ inline bool to_cell_fast(double v, std::int32_t& cell) {
 }  // namespace
 
 MvaoGrid::MvaoGrid(const AoConfig& config)
-    : cell_size_m_(config.grid_extent_m / config.grid_resolution), mode_(config.integration) {
+    : MvaoGrid(config.grid_extent_m / config.grid_resolution, config.integration,
+               config.mesh_cell_factor) {}
+
+MvaoGrid::MvaoGrid(double cell_size_m, AoIntegration mode, int mesh_cell_factor)
+    : cell_size_m_(cell_size_m), mode_(mode), mesh_cell_factor_(std::max(mesh_cell_factor, 1)) {
   if (!(cell_size_m_ > 0.0) || !std::isfinite(cell_size_m_))
     throw usage_error("ao.grid_extent_m / ao.grid_resolution must give a positive cell size");
   clear();
+}
+
+MvaoGrid MvaoGrid::coarsened(int factor) const {
+  const int f = std::max(factor, 1);
+  MvaoGrid out(cell_size_m_ * f, mode_, 1);
+  out.frames_ = frames_;
+  out.points_integrated_ = points_integrated_;
+  out.points_out_of_range_ = points_out_of_range_;
+  out.points_invalid_ = points_invalid_;
+  const auto floor_div = [f](std::int32_t v) {
+    return static_cast<std::int32_t>(v >= 0 ? v / f
+                                            : -((-static_cast<std::int64_t>(v) + f - 1) / f));
+  };
+  // Serial in table order, which is deterministic, so the float sums are too.
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    if (keys_[i] == kEmpty || !(cells_[i].weight_sum > 0.0f)) continue;
+    std::int32_t c[3];
+    morton_decode(keys_[i], c[0], c[1], c[2]);
+    const auto code = morton_encode(floor_div(c[0]), floor_div(c[1]), floor_div(c[2]));
+    if (!code) continue;  // cannot happen: coarse indices lie inside the fine range
+    MvaoCell& cell = out.insert(*code);
+    cell.ao_weight_sum += cells_[i].ao_weight_sum;
+    cell.weight_sum += cells_[i].weight_sum;
+    cell.last_frame = std::max(cell.last_frame, cells_[i].last_frame);
+  }
+  return out;
 }
 
 void MvaoGrid::clear() {

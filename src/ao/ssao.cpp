@@ -60,15 +60,36 @@ constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
 struct FrameSetup {
   const PointMaps* maps;
   const SsaoPattern* pattern;
-  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias;
+  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
 };
+
+/// One pixel's SSAO and the share of its samples that were counted (inside the image, on valid
+/// pixels).
+struct PixelAo {
+  float ao;
+  float coverage;
+};
+
+/// Radius (metres) of the screen-space disk of an estimator: r_s, or t_max for the heightfield
+/// estimator, which marches out to where rho reaches 1.
+float disk_radius_m(const FrameSetup& s) {
+  return s.pattern->estimator == AoEstimator::kHeightfield ? s.t_max_m : s.radius_m;
+}
+
+/// The weight of an evaluated pixel: Eq. 10-11 times the coverage weight.
+float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
+                   float coverage) {
+  const float w = view_weight(p, n, s.d_min_m, s.d_max_m);
+  if (!(s.coverage_power > 0.0f)) return w;
+  return w * std::pow(std::min(std::max(coverage, 0.0f), 1.0f), s.coverage_power);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Fast path: estimator-specialised loops over precomputed per-class offsets.
 
 template <AoEstimator E>
-float fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
-                    const Eigen::Vector3f& n) {
+PixelAo fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                      const Eigen::Vector3f& n) {
   const PointMaps& maps = *s.maps;
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
@@ -104,10 +125,11 @@ float fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
       }
     }
   }
-  if (counted == 0) return 1.0f;
+  const float coverage = static_cast<float>(counted) / static_cast<float>(count);
+  if (counted == 0) return {1.0f, coverage};
   const float mean = sum / static_cast<float>(counted);
-  if constexpr (E == AoEstimator::kPaper) return std::min(std::max(mean, 0.0f), 1.0f);
-  return std::min(std::max(1.0f - mean, 0.0f), 1.0f);
+  if constexpr (E == AoEstimator::kPaper) return {std::min(std::max(mean, 0.0f), 1.0f), coverage};
+  return {std::min(std::max(1.0f - mean, 0.0f), 1.0f), coverage};
 }
 
 /// GTAO arc integral of one side with horizon angle `h` about projected-normal angle `n`.
@@ -115,8 +137,8 @@ float integrate_arc(float h, float n, float cos_n, float sin_n) {
   return 0.25f * (cos_n + 2.0f * h * sin_n - std::cos(2.0f * h - n));
 }
 
-float fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
-                      const Eigen::Vector3f& n) {
+PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                        const Eigen::Vector3f& n) {
   const PointMaps& maps = *s.maps;
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
@@ -128,7 +150,8 @@ float fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
   const float rx = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
   const float ry = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
   const Eigen::Vector3f view = -p.normalized();
-  float visibility = 0.0f;
+  float visibility = 0.0f, open = 0.0f;
+  int counted = 0;
   for (int sl = 0; sl < pat.slices; ++sl) {
     const Eigen::Vector3f dir(dirs[sl].x(), dirs[sl].y(), 0.0f);
     const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
@@ -151,6 +174,7 @@ float fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
         const Eigen::Vector3f v = q - p;
         const float d2 = v.squaredNorm();
         if (!(d2 > 0.0f)) continue;
+        ++counted;
         const float d = std::sqrt(d2);
         const float keep = 1.0f - smoothstep01(d, s.t_max_m);
         const float shc = low_cos[side] + (v.dot(view) / d - low_cos[side]) * keep;
@@ -164,12 +188,86 @@ float fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
     const float sin_n = std::sin(n_ang);
     visibility += proj_len *
                   (integrate_arc(h0, n_ang, cos_n, sin_n) + integrate_arc(h1, n_ang, cos_n, sin_n));
+    open += proj_len * (integrate_arc(n_ang + kHalfPiF, n_ang, cos_n, sin_n) +
+                        integrate_arc(n_ang - kHalfPiF, n_ang, cos_n, sin_n));
   }
-  return std::min(std::max(visibility / static_cast<float>(pat.slices), 0.0f), 1.0f);
+  const float coverage = static_cast<float>(counted) / static_cast<float>(pat.samples);
+  if (!(open > 0.0f)) return {1.0f, coverage};
+  return {std::min(std::max(visibility / open, 0.0f), 1.0f), coverage};
 }
 
-using PixelFn = float (*)(const FrameSetup&, int, int, const Eigen::Vector3f&,
-                          const Eigen::Vector3f&);
+/// Heightfield estimator: per slice side, the samples in order of distance raise the horizon;
+/// the directions each sample newly hides (their cosine-weighted arc, GTAO's integral) are
+/// blocked at about that sample's distance d and keep rho(d) of their visibility, the directions
+/// above the final horizon see nothing (rho = 1). On a heightfield this is Eq. 1 exactly, up to
+/// the sample spacing. The bias lowers every sample by bias * depth along the normal.
+PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                            const Eigen::Vector3f& n) {
+  const PointMaps& maps = *s.maps;
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  const Eigen::Vector3f* verts = maps.vertices.data();
+  const SsaoPattern& pat = *s.pattern;
+  const int cls = pattern_class(x, y);
+  const Eigen::Vector2f* offs = pat.offsets.data() + cls * pat.samples;
+  const Eigen::Vector2f* dirs = pat.slice_dirs.data() + cls * pat.slices;
+  const float rx = std::min(s.fx * s.t_max_m / p.z(), kMaxRadiusPx);
+  const float ry = std::min(s.fy * s.t_max_m / p.z(), kMaxRadiusPx);
+  const Eigen::Vector3f view = -p.normalized();
+  const Eigen::Vector3f lowered = n * (s.bias * p.z());
+  float visibility = 0.0f, open = 0.0f;
+  int counted = 0;
+  for (int sl = 0; sl < pat.slices; ++sl) {
+    const Eigen::Vector3f dir(dirs[sl].x(), dirs[sl].y(), 0.0f);
+    const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
+    const Eigen::Vector3f axis = ortho.cross(view).normalized();
+    const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
+    const float proj_len = proj_n.norm();
+    if (!(proj_len > 1e-6f)) continue;
+    const float cos_n = std::min(std::max(proj_n.dot(view) / proj_len, 0.0f), 1.0f);
+    const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+    const float sin_n = std::sin(n_ang);
+    float slice_visibility = 0.0f, slice_open = 0.0f;
+    for (int side = 0; side < 2; ++side) {
+      const float sign = side == 0 ? 1.0f : -1.0f;
+      const float tangent = n_ang + sign * kHalfPiF;
+      float horizon_cos = std::cos(tangent);
+      float arc = integrate_arc(tangent, n_ang, cos_n, sin_n);
+      float side_visibility = arc;
+      const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
+      for (int k = 0; k < pat.steps; ++k) {
+        const int sx = offset_px_fast(x, so[k].x(), rx);
+        const int sy = offset_px_fast(y, so[k].y(), ry);
+        if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
+        const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
+        if (!(q.z() > 0.0f) || !q.allFinite()) continue;
+        const Eigen::Vector3f v = q - p;
+        const float d2 = v.squaredNorm();
+        if (!(d2 > 0.0f)) continue;
+        ++counted;
+        const Eigen::Vector3f vb = v - lowered;
+        const float vb_len = vb.norm();
+        if (!(vb_len > 0.0f)) continue;
+        const float c = vb.dot(view) / vb_len;
+        if (!(c > horizon_cos)) continue;
+        horizon_cos = std::min(c, 1.0f);
+        const float new_arc = integrate_arc(sign * std::acos(horizon_cos), n_ang, cos_n, sin_n);
+        side_visibility -= (1.0f - smoothstep01(std::sqrt(d2), s.t_max_m)) * (arc - new_arc);
+        arc = new_arc;
+      }
+      slice_visibility += side_visibility;
+      slice_open += integrate_arc(tangent, n_ang, cos_n, sin_n);
+    }
+    visibility += proj_len * slice_visibility;
+    open += proj_len * slice_open;
+  }
+  const float coverage = static_cast<float>(counted) / static_cast<float>(pat.samples);
+  if (!(open > 0.0f)) return {1.0f, coverage};
+  return {std::min(std::max(visibility / open, 0.0f), 1.0f), coverage};
+}
+
+using PixelFn = PixelAo (*)(const FrameSetup&, int, int, const Eigen::Vector3f&,
+                            const Eigen::Vector3f&);
 
 PixelFn fast_kernel(AoEstimator e) {
   switch (e) {
@@ -179,6 +277,8 @@ PixelFn fast_kernel(AoEstimator e) {
       return &fast_point_ao<AoEstimator::kObscurance>;
     case AoEstimator::kAlchemy:
       return &fast_point_ao<AoEstimator::kAlchemy>;
+    case AoEstimator::kHeightfield:
+      return &fast_heightfield_ao;
     case AoEstimator::kHorizon:
       break;
   }
@@ -188,14 +288,15 @@ PixelFn fast_kernel(AoEstimator e) {
 // ---------------------------------------------------------------------------------------------
 // Reference: one generic per-pixel function written from the formulas.
 
-float reference_pixel_ao(const FrameSetup& s, int x, int y) {
+PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
   const PointMaps& maps = *s.maps;
   const SsaoPattern& pat = *s.pattern;
   const Eigen::Vector3f p = maps.vertices(x, y);
   const Eigen::Vector3f n = maps.normals(x, y);
-  const float radius_x = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
-  const float radius_y = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
+  const float radius_x = std::min(s.fx * disk_radius_m(s) / p.z(), kMaxRadiusPx);
+  const float radius_y = std::min(s.fy * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const int cls = pattern_class(x, y);
+  int counted = 0;
 
   // Returns the sample's vertex, or false when the sample is not counted.
   auto fetch = [&](const Eigen::Vector2f& o, Eigen::Vector3f& q) {
@@ -204,12 +305,15 @@ float reference_pixel_ao(const FrameSetup& s, int x, int y) {
     if (!maps.vertices.contains(sx, sy) || (sx == x && sy == y)) return false;
     q = maps.vertices(sx, sy);
     if (!(q.z() > 0.0f) || !q.allFinite()) return false;
-    return (q - p).squaredNorm() > 0.0f;
+    if (!((q - p).squaredNorm() > 0.0f)) return false;
+    ++counted;
+    return true;
   };
+  auto coverage = [&] { return static_cast<float>(counted) / static_cast<float>(pat.samples); };
 
-  if (pat.estimator == AoEstimator::kHorizon) {
+  if (pat.estimator == AoEstimator::kHorizon || pat.estimator == AoEstimator::kHeightfield) {
     const Eigen::Vector3f view = -p.normalized();
-    float visibility = 0.0f;
+    float visibility = 0.0f, open = 0.0f;
     for (int sl = 0; sl < pat.slices; ++sl) {
       const Eigen::Vector2f d2 = pat.slice_dirs[cls * pat.slices + sl];
       const Eigen::Vector3f dir(d2.x(), d2.y(), 0.0f);
@@ -220,6 +324,36 @@ float reference_pixel_ao(const FrameSetup& s, int x, int y) {
       if (!(proj_len > 1e-6f)) continue;
       const float cos_n = std::clamp(proj_n.dot(view) / proj_len, 0.0f, 1.0f);
       const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+      // Cosine-weighted measure of the slice directions between the view vector and angle a.
+      auto arc = [&](float a) {
+        return 0.25f * (cos_n + 2.0f * a * std::sin(n_ang) - std::cos(2.0f * a - n_ang));
+      };
+      // What the slice sees with nothing above the tangent plane: not 1 per slice off the view
+      // axis (only the mean over slice directions is), so the AO is the ratio of the two.
+      open += proj_len * (arc(n_ang + kHalfPiF) + arc(n_ang - kHalfPiF));
+      if (pat.estimator == AoEstimator::kHeightfield) {
+        for (int side = 0; side < 2; ++side) {
+          const float sign = side == 0 ? 1.0f : -1.0f;
+          float horizon = n_ang + sign * kHalfPiF;  // the tangent plane
+          float slice_side = arc(horizon);
+          for (int k = 0; k < pat.steps; ++k) {
+            Eigen::Vector3f q;
+            if (!fetch(pat.offsets[cls * pat.samples + (sl * 2 + side) * pat.steps + k], q))
+              continue;
+            const Eigen::Vector3f lowered = q - p - n * (s.bias * p.z());
+            if (!(lowered.norm() > 0.0f)) continue;
+            const float angle =
+                sign * std::acos(std::clamp(lowered.dot(view) / lowered.norm(), -1.0f, 1.0f));
+            if (!(std::abs(angle) < std::abs(horizon))) continue;
+            // Directions between the old and the new horizon hit this sample's surface.
+            const float rho = smoothstep01((q - p).norm(), s.t_max_m);
+            slice_side -= (1.0f - rho) * (arc(horizon) - arc(angle));
+            horizon = angle;
+          }
+          visibility += proj_len * slice_side;
+        }
+        continue;
+      }
       float h[2];
       for (int side = 0; side < 2; ++side) {
         const float low = std::cos(side == 0 ? n_ang + kHalfPiF : n_ang - kHalfPiF);
@@ -235,17 +369,13 @@ float reference_pixel_ao(const FrameSetup& s, int x, int y) {
       }
       const float h0 = n_ang + std::min(h[0] - n_ang, kHalfPiF);
       const float h1 = n_ang + std::max(-h[1] - n_ang, -kHalfPiF);
-      const float arc0 =
-          0.25f * (cos_n + 2.0f * h0 * std::sin(n_ang) - std::cos(2.0f * h0 - n_ang));
-      const float arc1 =
-          0.25f * (cos_n + 2.0f * h1 * std::sin(n_ang) - std::cos(2.0f * h1 - n_ang));
-      visibility += proj_len * (arc0 + arc1);
+      visibility += proj_len * (arc(h0) + arc(h1));
     }
-    return std::clamp(visibility / static_cast<float>(pat.slices), 0.0f, 1.0f);
+    if (!(open > 0.0f)) return {1.0f, coverage()};
+    return {std::clamp(visibility / open, 0.0f, 1.0f), coverage()};
   }
 
   float sum = 0.0f;
-  int counted = 0;
   for (int k = 0; k < pat.samples; ++k) {
     Eigen::Vector3f q;
     if (!fetch(pat.offsets[cls * pat.samples + k], q)) continue;
@@ -254,7 +384,6 @@ float reference_pixel_ao(const FrameSetup& s, int x, int y) {
     const float rho = smoothstep01(dist, s.t_max_m);
     const float height = n.dot(v) - s.bias * p.z();  // above the tangent plane, less the bias
     const float c = height / dist;
-    ++counted;
     switch (pat.estimator) {
       case AoEstimator::kPaper:  // Eq. 3-5
         sum += rho * (1.0f - std::max(n.dot(v) / dist, 0.0f));
@@ -267,12 +396,14 @@ float reference_pixel_ao(const FrameSetup& s, int x, int y) {
                (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
         break;
       case AoEstimator::kHorizon:
+      case AoEstimator::kHeightfield:
         break;
     }
   }
-  if (counted == 0) return 1.0f;
+  if (counted == 0) return {1.0f, coverage()};
   const float mean = sum / static_cast<float>(counted);
-  return std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f);
+  return {std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f),
+          coverage()};
 }
 
 FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const AoConfig& config) {
@@ -284,7 +415,8 @@ FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const A
                     static_cast<float>(config.t_max_m),
                     static_cast<float>(config.d_min_m),
                     static_cast<float>(config.d_max_m),
-                    static_cast<float>(config.bias)};
+                    static_cast<float>(config.bias),
+                    static_cast<float>(config.coverage_power)};
 }
 
 }  // namespace
@@ -297,10 +429,18 @@ SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index)
   const double frame_jitter =
       fract(0.5 + static_cast<double>(frame_index % 1000003) * 0.7548776662466927);
   const int n = std::max(config.samples, 1);
+  const bool sliced =
+      config.estimator == AoEstimator::kHorizon || config.estimator == AoEstimator::kHeightfield;
   if (config.estimator == AoEstimator::kHorizon) {
     pat.steps = kHorizonSteps;
     pat.slices = std::max(1, n / (2 * kHorizonSteps));
     pat.samples = pat.slices * 2 * pat.steps;
+  } else if (config.estimator == AoEstimator::kHeightfield) {
+    // Two perpendicular slices of N / 4 steps per side (fewer, longer slices measured worse on the
+    // exact corner).
+    pat.slices = 2;
+    pat.steps = std::max(1, n / 4);
+    pat.samples = 4 * pat.steps;
   } else {
     pat.samples = n;
   }
@@ -311,7 +451,7 @@ SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index)
     const double turn = kBayer[c] / 16.0 + frame_turn;
     const double jitter = fract(kBayerT[c] / 16.0 + frame_jitter);
     Eigen::Vector2f* offs = pat.offsets.data() + c * pat.samples;
-    if (config.estimator == AoEstimator::kHorizon) {
+    if (sliced) {
       for (int sl = 0; sl < pat.slices; ++sl) {
         const double phi = kPi * (sl + fract(turn)) / pat.slices;
         const Eigen::Vector2d dir(std::cos(phi), std::sin(phi));
@@ -372,8 +512,9 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
           const Eigen::Vector3f& p = verts[base + x];
           const Eigen::Vector3f& n = norms[base + x];
           if (!ssao_pixel_valid(p, n)) continue;
-          ao_row[x] = kernel(setup, x, y, p, n);
-          w_row[x] = view_weight(p, n, setup.d_min_m, setup.d_max_m);
+          const PixelAo r = kernel(setup, x, y, p, n);
+          ao_row[x] = r.ao;
+          w_row[x] = pixel_weight(setup, p, n, r.coverage);
         }
       }
     });
@@ -395,7 +536,8 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
         }
         if (ex < 0) continue;
         const std::size_t eidx = static_cast<std::size_t>(ey) * w + ex;
-        const float value = kernel(setup, ex, ey, verts[eidx], norms[eidx]);
+        const PixelAo r = kernel(setup, ex, ey, verts[eidx], norms[eidx]);
+        const float value = r.ao;
         for (int dy = 0; dy < 2; ++dy)
           for (int dx = 0; dx < 2; ++dx) {
             const int x = 2 * bx + dx, y = 2 * by + dy;
@@ -403,7 +545,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
             const std::size_t idx = static_cast<std::size_t>(y) * w + x;
             if (ssao_pixel_valid(verts[idx], norms[idx])) ao.data()[idx] = value;
           }
-        weight.data()[eidx] = view_weight(verts[eidx], norms[eidx], setup.d_min_m, setup.d_max_m);
+        weight.data()[eidx] = pixel_weight(setup, verts[eidx], norms[eidx], r.coverage);
       }
     }
   });
@@ -435,10 +577,15 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
             ex = x - x % 2 + o[0], ey = y - y % 2 + o[1];
         }
       }
-      ao(x, y) = reference_pixel_ao(setup, ex, ey);
-      if (ex == x && ey == y)
-        weight(x, y) =
+      const PixelAo r = reference_pixel_ao(setup, ex, ey);
+      ao(x, y) = r.ao;
+      if (ex == x && ey == y) {
+        float w_px =
             view_weight(maps.vertices(x, y), maps.normals(x, y), setup.d_min_m, setup.d_max_m);
+        if (setup.coverage_power > 0.0f)
+          w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);
+        weight(x, y) = w_px;
+      }
     }
   }
 }

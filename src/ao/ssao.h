@@ -4,12 +4,14 @@
 ///
 /// Sampling: every evaluated pixel p (camera frame, metres) gets a screen-space disk of radius
 /// radius_px = fx * r_s / z (the sphere of radius r_s moved onto the optical axis at depth z,
-/// paper's simplification). The disk is sampled by a fixed pattern (SsaoPattern): for the point
+/// paper's simplification); the heightfield estimator's disk has radius fx * t_max / z instead,
+/// out to where rho reaches 1. The disk is sampled by a fixed pattern (SsaoPattern): for the point
 /// estimators a Vogel spiral of N points, for the horizon estimator N / 8 slices of 4 steps per
-/// side; a 4x4 interleaved set of 16 rotations picks the rotation of each pixel, and the whole
-/// pattern is rotated and radially jittered by the frame index so that successive frames sample
-/// new directions (the MVAO grid averages them). A sample is the vertex at the nearest pixel;
-/// samples outside the image, at invalid pixels or on the centre pixel are not counted.
+/// side, for the heightfield estimator 2 slices of N / 4 steps per side; a 4x4 interleaved set of
+/// 16 rotations picks the rotation of each pixel, and the whole pattern is rotated and radially
+/// jittered by the frame index so that successive frames sample new directions (the MVAO grid
+/// averages them). A sample is the vertex at the nearest pixel; samples outside the image, at
+/// invalid pixels or on the centre pixel are not counted.
 ///
 /// Estimators (v = p_i - p, d = |v|, c = n.v / d, rho = smoothstep(0, t_max, d), h = n.v - beta z
 /// the sample's height above the tangent plane less the depth-scaled bias beta = ao.bias):
@@ -18,7 +20,18 @@
 /// - alchemy:    AO = max(0, 1 - mean(r_s * max(h, 0) / (d^2 + eps r_s^2)))  (McGuire 2011)
 /// - horizon:    per slice, the highest horizon on each side (its cosine lowered toward the
 ///               tangent plane by rho, as XeGTAO's falloff), then the GTAO cosine-weighted arc
-///               integral, averaged over slices.
+///               integral, summed over slices and divided by the same integral with nothing above
+///               the tangent plane (which is 1 only averaged over all slice directions, not per
+///               slice: without the division open surfaces off the view axis read as occluded).
+/// - heightfield: Eq. 1 on each slice's height profile: the cosine-weighted arc (GTAO's
+///               integral) between the tangent plane and the final horizon is split at each
+///               sample that raises the horizon (samples in order of distance, lowered by beta z
+///               along n); the arc a sample newly hides is blocked at its distance d and keeps
+///               rho(d) of its visibility, the arc above the final horizon is open; divided by
+///               the open integral as for horizon. Exact on a heightfield up to the sample
+///               spacing; thin objects read as solid (halos).
+/// Each pixel's coverage is the share of its samples counted (inside the image, on valid pixels);
+/// with ao.coverage_power p > 0 its weight is (w_d w_n) coverage^p.
 /// AO is in [0, 1] (1 = open). Invalid pixels (zero, NaN or inf vertex or normal, z <= 0) get AO 0
 /// and weight 0; pixels without any counted sample get AO 1.
 #pragma once
@@ -53,7 +66,7 @@ struct SsaoPattern {
 
 /// The deterministic sample pattern of frame `frame_index` for `config.samples` and
 /// `config.estimator` (the horizon estimator rounds the sample count to a multiple of 8, at least
-/// 8).
+/// 8; the heightfield estimator to a multiple of 4, at least 4).
 SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index);
 
 /// Eq. 10-11 weight of a camera-frame point `p_camera` (metres) with unit normal `n_camera`:
@@ -66,11 +79,11 @@ float view_weight(const Eigen::Vector3f& p_camera, const Eigen::Vector3f& n_came
 bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& normal);
 
 /// SSAO of `maps` (camera frame) for frame `frame_index`: fills `ao` (in [0, 1], 1 = open) and
-/// `weight` (Eq. 10-11, 0 where invalid or not evaluated) at the maps' resolution, reusing their
-/// buffers. With config.ssao_stride_px = 2, one pixel per 2x2 block is evaluated (the first valid
-/// one in an order that rotates with the frame) and its AO is copied to the block's other valid
-/// pixels with weight 0. Rows run in parallel through TBB; the result is bit-identical for any
-/// thread count.
+/// `weight` (Eq. 10-11 times the coverage weight, 0 where invalid or not evaluated) at the maps'
+/// resolution, reusing their buffers. With config.ssao_stride_px = 2, one pixel per 2x2 block is
+/// evaluated (the first valid one in an order that rotates with the frame) and its AO is copied to
+/// the block's other valid pixels with weight 0. Rows run in parallel through TBB; the result is
+/// bit-identical for any thread count.
 void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
                   Image<float>& ao, Image<float>& weight);
 

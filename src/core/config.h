@@ -146,8 +146,9 @@ enum class AoIntegration { kMvao, kMean, kLast };
 enum class AoInput { kRaycast, kRaw };
 /// Per-sample SSAO estimator (see src/ao/ssao.h): paper 000 Eq. 3-5 as printed; obscurance form
 /// (only samples above the tangent plane occlude, weighted by elevation and 1 - rho); Alchemy
-/// (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice integral with rho).
-enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon };
+/// (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice integral with rho);
+/// heightfield (Eq. 1 integrated exactly on each slice's height profile up to t_max).
+enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon, kHeightfield };
 
 /// Screen-space AO and the multi-view AO grid (paper 000 Sec. 4 and 6).
 struct AoConfig {
@@ -171,10 +172,22 @@ struct AoConfig {
   /// (the block's pixel rotates with the frame index) and copies it to the block's other pixels
   /// with weight 0, so the MVAO grid only integrates evaluated pixels.
   int ssao_stride_px = 2;
-  /// Alchemy and obscurance estimators: a sample occludes only by its height above the tangent
-  /// plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth like
-  /// their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
+  /// Alchemy, obscurance and heightfield estimators: a sample occludes only by its height above the
+  /// tangent plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth
+  /// like their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
   double bias = 0.005;
+  /// Coverage weight (in the spirit of the paper's border weight w_b, Eq. 12): in mvao mode a
+  /// pixel's weight w_d * w_n is multiplied by coverage^coverage_power, coverage = the share of
+  /// its SSAO samples that fell inside the image on valid pixels (samples off the image or in
+  /// holes count as open, so such a pixel's AO is too light). 0 = off. 4: noisy corner through the
+  /// pipeline r 0.862 -> 0.865 (1: 0.864); see BENCHMARKS.md.
+  double coverage_power = 4.0;
+  /// The mesh export reads the grid through cells of mesh_cell_factor^3 grid cells (their sums
+  /// added, i.e. the AO averaged over mesh_cell_factor * cell size) with trilinear interpolation
+  /// between those; the live view keeps the grid's own cells. 1 = the grid's cells. 4 (3.1 cm
+  /// with the default grid, a third of r_s): noisy corner r 0.865 -> 0.890 (3: 0.886), the fused
+  /// surface's small bumps average out; see BENCHMARKS.md.
+  int mesh_cell_factor = 4;
 
   template <class V>
   void visit(V& v) {
@@ -193,15 +206,24 @@ struct AoConfig {
     v.choice("input", input, "SSAO input: raycast of the model or raw filtered depth",
              {{"raycast", AoInput::kRaycast}, {"raw", AoInput::kRaw}});
     v.choice("estimator", estimator,
-             "SSAO estimator: paper (Eq. 3-5 as printed), obscurance, alchemy, horizon",
+             "SSAO estimator: paper (Eq. 3-5 as printed), obscurance, alchemy, horizon, "
+             "heightfield",
              {{"paper", AoEstimator::kPaper},
               {"obscurance", AoEstimator::kObscurance},
               {"alchemy", AoEstimator::kAlchemy},
-              {"horizon", AoEstimator::kHorizon}});
+              {"horizon", AoEstimator::kHorizon},
+              {"heightfield", AoEstimator::kHeightfield}});
     v.number("bias", bias,
-             "SSAO alchemy/obscurance: a sample occludes only above the tangent plane by more "
-             "than bias * depth (m per m of depth)",
+             "SSAO alchemy/obscurance/heightfield: a sample occludes only above the tangent plane "
+             "by more than bias * depth (m per m of depth)",
              0.0, 1.0);
+    v.number("coverage_power", coverage_power,
+             "mvao weight *= (share of SSAO samples inside the image on valid pixels)^power; "
+             "0 = off",
+             0.0, 16.0);
+    v.integer("mesh_cell_factor", mesh_cell_factor,
+              "mesh AO reads the grid through cells of factor^3 grid cells (1 = the grid's cells)",
+              1, 64);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
   }

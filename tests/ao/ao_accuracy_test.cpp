@@ -175,6 +175,8 @@ const char* name(AoEstimator e) {
       return "alchemy";
     case AoEstimator::kHorizon:
       return "horizon";
+    case AoEstimator::kHeightfield:
+      return "heightfield";
   }
   return "?";
 }
@@ -185,7 +187,7 @@ const char* name(AoIntegration m) {
 std::vector<AoConfig> all_configs(const AoConfig& base) {
   std::vector<AoConfig> out;
   for (AoEstimator e : {AoEstimator::kPaper, AoEstimator::kObscurance, AoEstimator::kAlchemy,
-                        AoEstimator::kHorizon})
+                        AoEstimator::kHorizon, AoEstimator::kHeightfield})
     for (AoIntegration m : {AoIntegration::kMvao, AoIntegration::kMean, AoIntegration::kLast}) {
       AoConfig c = base;
       c.estimator = e;
@@ -213,7 +215,7 @@ TEST(AoAccuracy, EstimatorsAndModesAgainstRayTracedReference) {
   // views is not worse than the last view (with exact depth the single view is already good).
   const AoEstimator best = AoConfig{}.estimator;
   for (AoEstimator e : {AoEstimator::kPaper, AoEstimator::kObscurance, AoEstimator::kAlchemy,
-                        AoEstimator::kHorizon})
+                        AoEstimator::kHorizon, AoEstimator::kHeightfield})
     EXPECT_GE(r(best, AoIntegration::kMvao), r(e, AoIntegration::kMvao) - 0.005) << name(e);
   EXPECT_GT(r(best, AoIntegration::kMvao), 0.9);
   EXPECT_LT(std::abs(scores.at(Key{best, AoIntegration::kMvao}).bias), 0.03);
@@ -257,7 +259,8 @@ TEST(AoAccuracy, FullMeasurement) {
   SynthParams params;
   const Pose T = synth_camera_pose("corner", SynthTrajectory::kOrbit, 1, 3.0);
   const PointMaps maps = render_exact(scene, params.intrinsics(), T);
-  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon})
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon,
+                        AoEstimator::kHeightfield})
     for (int stride : {1, 2})
       for (int samples : {16, 32}) {
         AoConfig c;

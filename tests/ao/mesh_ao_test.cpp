@@ -16,6 +16,7 @@ MvaoGrid two_cell_grid() {
   c.grid_extent_m = 1.0;
   c.grid_resolution = 4;
   c.integration = AoIntegration::kMean;
+  c.mesh_cell_factor = 1;  // the grid's own cells
   MvaoGrid grid(c);
   Image<float> ao(2, 1), w(2, 1, 1.0f);
   ao(0, 0) = 0.2f;
@@ -47,6 +48,33 @@ TEST(MeshAo, SamplesTheGridAndFallsBackToTheNearestCell) {
   EXPECT_FLOAT_EQ(mesh.quality[3], 0.8f);
   EXPECT_FLOAT_EQ(mesh.quality[4], 0.8f);
   EXPECT_FLOAT_EQ(mesh.quality[5], 1.0f);
+}
+
+TEST(MeshAo, ReadsTheGridThroughCoarserCellsWithTheMeshCellFactor) {
+  AoConfig c;
+  c.grid_extent_m = 1.0;
+  c.grid_resolution = 4;  // cells of 0.25 m
+  c.integration = AoIntegration::kMean;
+  c.mesh_cell_factor = 2;
+  MvaoGrid grid(c);
+  // Cells (0,0,0) = 0.2 and (1,0,0) = 0.6 share the coarse cell (0,0,0): mean 0.4 there.
+  Image<float> ao(2, 1), w(2, 1, 1.0f);
+  ao(0, 0) = 0.2f;
+  ao(1, 0) = 0.6f;
+  PointMaps maps;
+  maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
+  maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+  maps.vertices(0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
+  maps.vertices(1, 0) = Eigen::Vector3f(0.3f, 0.1f, 0.1f);
+  grid.integrate(ao, w, maps, Pose::identity());
+  TriangleMesh mesh;
+  mesh.vertices = {{0.125f, 0.125f, 0.125f}, {0.25f, 0.25f, 0.25f}};
+  EXPECT_EQ(apply_grid_ao(grid, mesh), 0u);
+  EXPECT_FLOAT_EQ(mesh.quality[0], 0.4f);
+  EXPECT_FLOAT_EQ(mesh.quality[1], 0.4f);
+  // The grid's own cells: cell (0,0,0)'s centre gives its own value.
+  EXPECT_EQ(apply_grid_ao_cells(grid, mesh), 0u);
+  EXPECT_FLOAT_EQ(mesh.quality[0], 0.2f);
 }
 
 TEST(MeshAo, EmptyGridGivesOpenVertices) {

@@ -230,6 +230,29 @@ TEST(MvaoGrid, MemoryGrowsOnlyWithObservedCells) {
   EXPECT_FALSE(grid.cell_ao({0, 0, 0}));
 }
 
+TEST(MvaoGrid, CoarsenedCellsHoldTheWeightedMeanOfTheirCells) {
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));  // cells of 0.25 m
+  // Cells (0,0,0), (1,0,0) and (1,1,1) lie in coarse cell (0,0,0) of factor 2; (2,0,0) and the
+  // negative cell (-1,0,0) in coarse cells (1,0,0) and (-1,0,0).
+  const Frame f({kA, kC, {0.3f, 0.3f, 0.3f}, {0.6f, 0.1f, 0.1f}, {-0.1f, 0.1f, 0.1f}},
+                {0.2f, 0.6f, 1.0f, 0.4f, 0.9f}, {1.0f, 0.5f, 0.25f, 2.0f, 1.0f});
+  ASSERT_TRUE(grid.integrate(f.ao, f.w, f.maps, Pose::identity()).is_ok());
+  const MvaoGrid coarse = grid.coarsened(2);
+  EXPECT_DOUBLE_EQ(coarse.cell_size_m(), 0.5);
+  EXPECT_EQ(coarse.cell_count(), 3u);
+  EXPECT_EQ(coarse.integration(), AoIntegration::kMvao);
+  ASSERT_TRUE(coarse.cell_ao({0, 0, 0}));
+  EXPECT_FLOAT_EQ(*coarse.cell_ao({0, 0, 0}),
+                  (0.2f * 1.0f + 0.6f * 0.5f + 1.0f * 0.25f) / (1.0f + 0.5f + 0.25f));
+  EXPECT_FLOAT_EQ(*coarse.cell_ao({1, 0, 0}), 0.4f);
+  EXPECT_FLOAT_EQ(*coarse.cell_ao({-1, 0, 0}), 0.9f);
+  EXPECT_EQ(coarse.frames_integrated(), 1u);
+  // Factor 1 (and below) keeps every cell as it is.
+  const MvaoGrid same = grid.coarsened(0);
+  EXPECT_EQ(same.cell_count(), grid.cell_count());
+  EXPECT_FLOAT_EQ(*same.cell_ao({1, 1, 1}), 1.0f);
+}
+
 TEST(MvaoGrid, RejectsADegenerateCellSize) {
   AoConfig c;
   c.grid_extent_m = std::nan("");

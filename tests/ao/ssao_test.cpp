@@ -4,6 +4,7 @@
 #include "ao/ssao.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include <gtest/gtest.h>
@@ -20,7 +21,8 @@ using test::render_planes;
 using test::small_camera;
 
 constexpr AoEstimator kAllEstimators[] = {AoEstimator::kPaper, AoEstimator::kObscurance,
-                                          AoEstimator::kAlchemy, AoEstimator::kHorizon};
+                                          AoEstimator::kAlchemy, AoEstimator::kHorizon,
+                                          AoEstimator::kHeightfield};
 
 AoConfig config_for(AoEstimator e, int stride) {
   AoConfig c;
@@ -91,6 +93,11 @@ TEST(Ssao, OpenWallIsFullyOpenExceptForThePaperEstimator) {
   double mean = 0.0;
   for (float v : std::vector<float>(ao.data(), ao.data() + ao.size())) mean += v;
   EXPECT_GT(mean / ao.size(), 0.98);
+  // Heightfield: the bias lowers every sample below the tangent plane, no horizon rises; the
+  // visibility is then the open arc integral, exactly 1 on the view axis (within float rounding).
+  compute_ssao(maps, config_for(AoEstimator::kHeightfield, 1), 0, ao, w);
+  EXPECT_NEAR(ao(160, 120), 1.0f, 1e-5f);
+  EXPECT_NEAR(ao(161, 121), 1.0f, 2e-3f);
   // Eq. 3 as printed counts tangent samples within t_max as occluders: an open wall is dark.
   compute_ssao(maps, config_for(AoEstimator::kPaper, 1), 0, ao, w);
   EXPECT_LT(ao(160, 120), 0.8f);
@@ -102,7 +109,8 @@ TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
   Pose T;
   const PointMaps maps = floor_wall_edge(&T);
   Image<float> ao, w;
-  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon})
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon,
+                        AoEstimator::kHeightfield})
     for (double bias : {0.0, AoConfig{}.bias}) {
       AoConfig config = config_for(e, 1);
       config.bias = bias;
@@ -129,6 +137,54 @@ TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
         EXPECT_GT(far_min, 1.0f - 1e-5f);
       }
     }
+}
+
+TEST(Ssao, HorizonIsOpenOffTheViewAxis) {
+  // A wall seen at about 30 degrees from grazing: each slice's open arc integral differs from 1
+  // (only the mean over slice directions is 1); dividing by it keeps an open surface open with
+  // one slice per pixel (without the division the mean here is 0.86).
+  const Pose T = look_at({0.0, -1.0, 0.6}, {0.0, 0.0, 0.0}, {0.0, 0.0, 1.0});
+  const PointMaps maps = render_planes(small_camera(), T, {Plane{{0.0, 0.0, 1.0}, 0.0}});
+  Image<float> ao, w;
+  AoConfig c = config_for(AoEstimator::kHorizon, 1);
+  c.samples = 8;  // one slice per pixel
+  double sum = 0.0;
+  int counted = 0;
+  for (std::uint64_t frame : {0u, 1u, 2u}) {
+    compute_ssao(maps, c, frame, ao, w);
+    for (int y = 20; y < 220; y += 10)
+      for (int x = 20; x < 300; x += 10) {
+        if (!(maps.vertices(x, y).z() > 0.0f)) continue;
+        sum += ao(x, y);
+        ++counted;
+      }
+  }
+  ASSERT_GT(counted, 500);
+  std::printf("horizon mean on the tilted wall: %.4f\n", sum / counted);
+  EXPECT_GT(sum / counted, 0.97);
+}
+
+TEST(Ssao, CoverageWeightLowersPixelsWhoseDiskLeavesTheImage) {
+  const PointMaps maps = open_wall();  // the wall fills the image
+  Image<float> ao, w, w_off;
+  AoConfig c = config_for(AoEstimator::kAlchemy, 1);
+  c.coverage_power = 0.0;
+  compute_ssao(maps, c, 0, ao, w_off);
+  c.coverage_power = 2.0;
+  compute_ssao(maps, c, 0, ao, w);
+  // Centre: the whole disk (radius fx r_s / z = 24 px) is inside the image.
+  EXPECT_EQ(w(160, 120), w_off(160, 120));
+  // Corner pixel: a quarter of the disk at most is inside, so the weight is at most 1/16.
+  EXPECT_GT(w_off(0, 0), 0.0f);
+  EXPECT_LE(w(0, 0), w_off(0, 0) / 16.0f + 1e-6f);
+  EXPECT_GT(w(0, 0), 0.0f);
+  // Edge pixel: about half the disk inside: between 1/9 and 1/2 of the weight (power 2).
+  EXPECT_LT(w(160, 0), w_off(160, 0) * 0.5f);
+  EXPECT_GT(w(160, 0), w_off(160, 0) / 9.0f);
+  // The fast path and the reference agree on the weights.
+  Image<float> ao_ref, w_ref;
+  compute_ssao_reference(maps, c, 0, ao_ref, w_ref);
+  EXPECT_EQ(w, w_ref);
 }
 
 TEST(Ssao, BiasIgnoresBumpsLowerThanBiasTimesDepth) {
