@@ -19,9 +19,14 @@ struct PreprocessConfig {
   double max_depth_m = 4.5;           ///< farther depths are invalid
   double outlier_threshold_m = 0.02;  ///< drop a pixel when any 8-neighbour differs by more
   /// ... than outlier_threshold_m + outlier_threshold_per_m2 * depth^2 (the depth resolution of
-  /// a triangulating sensor falls with depth^2; 0 gives the paper's fixed threshold). The depth
-  /// term applies to the fused (and SSAO raw) depth; tracking always uses the fixed threshold.
+  /// a triangulating sensor falls with depth^2; 0 gives the paper's fixed threshold). This is the
+  /// fused (and SSAO raw) depth's threshold.
   double outlier_threshold_per_m2 = 0.002;
+  /// The same growth for the depth that tracking reads (outlier_threshold_m +
+  /// tracking_outlier_threshold_per_m2 * depth^2). A Kinect v1's disparity step is about
+  /// 0.0029-0.0032 m * depth^2 (f = 525-585 px) and its axial noise 0.0019 m * depth^2, so a
+  /// fixed threshold removes most of every surface beyond about 2.5 m from the tracking depth.
+  double tracking_outlier_threshold_per_m2 = 0.004;
   /// Bilateral filter before tracking. Sigmas are PCL KinFu's (4.5 px, 0.03 m); KinFu's radius is
   /// 6 px (13x13 window), here 2 px (5x5) by default: about 5 ms per VGA frame on one core, and
   /// RedKitchen tracks as well as with 7x7. 0 disables the filter.
@@ -43,9 +48,14 @@ struct PreprocessConfig {
              "border-outlier removal: a pixel goes when an 8-neighbour differs in depth by more "
              "than this (m) plus outlier_threshold_per_m2 * depth^2; 0 disables",
              0.0, 10.0);
-    v.number("outlier_threshold_per_m2", outlier_threshold_per_m2,
-             "border-outlier removal of the fused depth: growth of the threshold with the square of "
-             "the pixel's depth (1/m); 0 keeps it fixed as in the paper (tracking always does)",
+    v.number(
+        "outlier_threshold_per_m2", outlier_threshold_per_m2,
+        "border-outlier removal of the fused depth: growth of the threshold with the square of "
+        "the pixel's depth (1/m); 0 keeps it fixed as in the paper",
+        0.0, 1.0);
+    v.number("tracking_outlier_threshold_per_m2", tracking_outlier_threshold_per_m2,
+             "border-outlier removal of the tracking depth: the same growth with depth^2 (1/m); 0 "
+             "keeps it fixed as in the paper",
              0.0, 1.0);
     v.integer("bilateral_radius_px", bilateral_radius_px,
               "bilateral filter half-window (px); 0 disables the filter", 0, 16);
@@ -96,20 +106,32 @@ struct FusionConfig {
 
 /// Frame-to-model projective point-to-plane ICP and the per-frame tracking status.
 struct TrackingConfig {
-  int iterations_level0 = 2;           ///< Gauss-Newton iterations at full resolution
-  int iterations_level1 = 5;           ///< ... at half resolution
-  int iterations_level2 = 10;          ///< ... at quarter resolution (done first)
+  int iterations_level0 = 2;   ///< Gauss-Newton iterations at full resolution
+  int iterations_level1 = 5;   ///< ... at half resolution
+  int iterations_level2 = 10;  ///< ... at quarter resolution (done first)
   /// Full resolution associates every n-th pixel of each row, staggered row to row (2 = a
   /// checkerboard, half the pixels); coarser levels use every pixel.
   int level0_pixel_step = 2;
   double max_distance_m = 0.1;         ///< correspondences farther apart are rejected (m)
   double max_normal_angle_deg = 30.0;  ///< correspondences whose normals differ more are rejected
   double huber_delta_m = 0.005;        ///< Huber robust weight: residuals above are down-weighted
-  double lost_inlier_ratio = 0.1;      ///< inliers / valid frame pixels below this: lost
-  double poor_inlier_ratio = 0.3;      ///< inliers / valid frame pixels below this: poor
-  double poor_rms_residual_m = 0.01;   ///< point-to-plane RMS residual above this: poor
-  double max_translation_m = 0.15;     ///< motion from the initial pose above this: lost (m)
-  double max_rotation_deg = 20.0;      ///< rotation from the initial pose above this: lost (deg)
+  /// Depth-dependent noise of the ICP residuals: beyond this depth a correspondence's residual
+  /// is scaled by s = (z / noise_reference_depth_m)^2 (the axial noise of a triangulating sensor
+  /// grows with z^2): Huber threshold huber_delta_m * s and weight 1 / s^2. 0 weighs all depths
+  /// alike.
+  double noise_reference_depth_m = 1.0;
+  double lost_inlier_ratio = 0.1;     ///< inliers / valid frame pixels below this: lost
+  double poor_inlier_ratio = 0.3;     ///< inliers / valid frame pixels below this: poor
+  double poor_rms_residual_m = 0.01;  ///< point-to-plane RMS residual above this: poor
+  double max_translation_m = 0.15;    ///< motion from the initial pose above this: lost (m)
+  double max_rotation_deg = 20.0;     ///< rotation from the initial pose above this: lost (deg)
+  /// ICP uses the model raycast's normals averaged over (2 r + 1)^2 pixels of the raycast (points
+  /// within model_normal_max_distance_m of the pixel's): TSDF-gradient normals of a model fused
+  /// from few noisy frames scatter by tens of degrees at 2-3 m, which both rejects most
+  /// correspondences at the normal-angle test and biases the point-to-plane solution along the
+  /// weakly constrained directions of a room (walls and floor). 0 uses the raw normals.
+  int model_normal_radius_px = 2;
+  double model_normal_max_distance_m = 0.05;  ///< neighbours farther away (m) are not averaged
 
   template <class V>
   void visit(V& v) {
@@ -122,6 +144,18 @@ struct TrackingConfig {
               1, 8);
     v.number("max_distance_m", max_distance_m, "ICP correspondence distance rejection (m)", 1e-4,
              10.0);
+    v.integer("model_normal_radius_px", model_normal_radius_px,
+              "ICP averages the model raycast's normals over this radius (pixels of the raycast); "
+              "0 uses them as they are",
+              0, 8);
+    v.number(
+        "model_normal_max_distance_m", model_normal_max_distance_m,
+        "model normal averaging: only neighbours within this distance of the pixel's point (m)",
+        1e-3, 1.0);
+    v.number("noise_reference_depth_m", noise_reference_depth_m,
+             "ICP: beyond this depth (m) residuals count as noisier by (z / this)^2 (Huber "
+             "threshold times that, weight over its square); 0 weighs all depths alike",
+             0.0, 100.0);
     v.number("max_normal_angle_deg", max_normal_angle_deg,
              "ICP correspondence normal-angle rejection (degrees)", 0.0, 180.0);
     v.number("huber_delta_m", huber_delta_m, "ICP Huber threshold of the residual (m)", 1e-5, 1.0);

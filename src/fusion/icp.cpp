@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -92,6 +93,7 @@ struct Associator {
   float max_distance_sq;
   float min_normal_cos;
   float huber;
+  float inv_noise_depth_sq;  ///< 1 / noise_reference_depth_m^2 (1/m^2), 0 without depth weighting
   const float* model_vertices;  ///< model vertex map as x, y, z floats, row-major
   const float* model_normals;
   int model_width;
@@ -107,6 +109,10 @@ struct Associator {
         max_distance_sq(static_cast<float>(config.max_distance_m * config.max_distance_m)),
         min_normal_cos(static_cast<float>(std::cos(config.max_normal_angle_deg * M_PI / 180.0))),
         huber(static_cast<float>(config.huber_delta_m)),
+        inv_noise_depth_sq(config.noise_reference_depth_m > 0.0
+                               ? static_cast<float>(1.0 / (config.noise_reference_depth_m *
+                                                           config.noise_reference_depth_m))
+                               : 0.0f),
         model_vertices(reinterpret_cast<const float*>(model_maps.vertices.data())),
         model_normals(reinterpret_cast<const float*>(model_maps.normals.data())),
         model_width(model_maps.vertices.width()),
@@ -150,8 +156,13 @@ struct Associator {
                     nm[0],
                     nm[1],
                     nm[2]};
+    // Depth noise scale s = max(1, (z / z_ref)^2): Huber on r / s, weight 1 / s^2 on top.
     const float abs_r = std::abs(r);
-    const T weight = abs_r <= huber ? T(1) : static_cast<T>(huber) / static_cast<T>(abs_r);
+    const float noise = std::max(1.0f, pz * pz * inv_noise_depth_sq);
+    const float huber_scaled = huber * noise;
+    const T weight =
+        (abs_r <= huber_scaled ? T(1) : static_cast<T>(huber_scaled) / static_cast<T>(abs_r)) /
+        static_cast<T>(noise * noise);
     acc.add(j, static_cast<T>(r), weight);
   }
 
@@ -313,10 +324,16 @@ __attribute__((target("avx2,fma"))) AOSCAN_NO_CONTRACT void row_avx2(const Assoc
         _mm256_and_ps(ok, mx),
         _mm256_and_ps(ok, my),
         _mm256_and_ps(ok, mz)};
-    // Huber weight: 1 up to the threshold, huber / |r| above (rejected lanes have r = 0).
+    // Huber weight on r / s with the depth noise scale s = max(1, (z / z_ref)^2): 1 up to the
+    // threshold, huber s / |r| above (rejected lanes have r = 0), then divided by s^2.
     const __m256 abs_r = _mm256_and_ps(abs_mask, r);
-    const __m256 weight = _mm256_blendv_ps(_mm256_div_ps(bc(a.huber), abs_r), one,
-                                           _mm256_cmp_ps(abs_r, bc(a.huber), _CMP_LE_OQ));
+    const __m256 noise =
+        _mm256_max_ps(one, _mm256_mul_ps(_mm256_mul_ps(pz, pz), bc(a.inv_noise_depth_sq)));
+    const __m256 huber_scaled = _mm256_mul_ps(bc(a.huber), noise);
+    const __m256 weight = _mm256_and_ps(
+        ok, _mm256_div_ps(_mm256_blendv_ps(_mm256_div_ps(huber_scaled, abs_r), one,
+                                           _mm256_cmp_ps(abs_r, huber_scaled, _CMP_LE_OQ)),
+                          _mm256_mul_ps(noise, noise)));
     int k = 0;
     for (int i = 0; i < 6; ++i) {
       const __m256 wj = _mm256_mul_ps(weight, j[i]);
@@ -470,6 +487,38 @@ IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
   return total.system();
 }
 
+void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m,
+                          PointMaps& out) {
+  const int w = in.vertices.width();
+  const int h = in.vertices.height();
+  out.intrinsics = in.intrinsics;
+  out.vertices = in.vertices;
+  out.normals.resize(w, h, Eigen::Vector3f::Zero());
+  const float max_distance_sq = max_distance_m * max_distance_m;
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      for (int x = 0; x < w; ++x) {
+        const Eigen::Vector3f& v = in.vertices(x, y);
+        const Eigen::Vector3f& n = in.normals(x, y);
+        if (!(v.z() > 0.0f) || (n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f)) {
+          out.normals(x, y).setZero();
+          continue;
+        }
+        Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+        for (int yy = std::max(0, y - radius_px); yy <= std::min(h - 1, y + radius_px); ++yy) {
+          for (int xx = std::max(0, x - radius_px); xx <= std::min(w - 1, x + radius_px); ++xx) {
+            const Eigen::Vector3f& q = in.vertices(xx, yy);
+            if (!(q.z() > 0.0f) || !((q - v).squaredNorm() <= max_distance_sq)) continue;
+            sum += in.normals(xx, yy);  // a zero normal adds nothing
+          }
+        }
+        const float length = sum.norm();
+        out.normals(x, y) = length > 0.0f ? Eigen::Vector3f(sum / length) : n;
+      }
+    }
+  });
+}
+
 void downsample_model(const PointMaps& in, PointMaps& out) {
   out.intrinsics = in.intrinsics.scaled(1);
   const int w = in.vertices.width() / 2;
@@ -495,6 +544,12 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
   // frame level's: the raycast itself while it is not finer, else halved as often as needed.
   const PointMaps* model_maps[kPyramidLevels];
   const PointMaps* current = &model.maps;
+  if (config.model_normal_radius_px > 0) {
+    smooth_model_normals(model.maps, config.model_normal_radius_px,
+                         static_cast<float>(config.model_normal_max_distance_m),
+                         workspace.model[0]);
+    current = &workspace.model[0];
+  }
   for (int level = 0; level < kPyramidLevels; ++level) {
     const int frame_width = frame.maps[level].vertices.width();
     if (level > 0 && current->vertices.width() / 2 >= frame_width &&

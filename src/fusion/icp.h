@@ -71,10 +71,18 @@ IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
                                const Pose& T_model_camera, const TrackingConfig& config,
                                int pixel_step = 1);
 
-/// Reusable buffers of icp(): the model maps at every pyramid level (level 0 is not used).
+/// Reusable buffers of icp(): the model maps at every pyramid level (level 0: the raycast with
+/// smoothed normals, when config.model_normal_radius_px > 0).
 struct IcpWorkspace {
   std::array<PointMaps, kPyramidLevels> model;
 };
+
+/// The model maps `in` with every normal replaced by the normalised sum of the normals within
+/// radius_px pixels (a (2 radius_px + 1)^2 window clipped at the image border) whose vertices lie
+/// within max_distance_m of the pixel's own (metres, camera frame): the same surface, not the one
+/// behind a depth jump. Pixels without a vertex or a normal keep a zero normal; vertices and
+/// intrinsics are copied. The result does not depend on the thread count.
+void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m, PointMaps& out);
 
 /// Model maps at half resolution: pixel (x, y) takes the vertex and normal of pixel (2x, 2y);
 /// intrinsics are `in.intrinsics.scaled(1)`. `out`'s buffers are reused.

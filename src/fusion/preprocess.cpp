@@ -134,7 +134,8 @@ void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, I
                       Image<float>* tracking_out) {
   const float t = static_cast<float>(config.outlier_threshold_m);
   const float per_m2 = static_cast<float>(config.outlier_threshold_per_m2);
-  const bool two = tracking_out != nullptr && per_m2 > 0.0f && filter_enabled(t);
+  const float tracking_per_m2 = static_cast<float>(config.tracking_outlier_threshold_per_m2);
+  const bool two = tracking_out != nullptr && tracking_per_m2 != per_m2 && filter_enabled(t);
   if (tracking_out && !two) tracking_out->resize(0, 0);
   if (!filter_enabled(t)) {
     depth_to_metres(frame, config, out);
@@ -157,7 +158,7 @@ void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, I
     const float* up = y > 0 ? slot(y - 1) : mid;
     const float* dn = y + 1 < h ? slot(y + 1) : mid;
     filter_row(up, mid, dn, w, t, per_m2, out.row(y));
-    if (two) filter_row(up, mid, dn, w, t, 0.0f, tracking_out->row(y));
+    if (two) filter_row(up, mid, dn, w, t, tracking_per_m2, tracking_out->row(y));
   }
 }
 

@@ -57,8 +57,8 @@ void remove_border_outliers_reference(const Image<float>& depth_m, float thresho
 /// depth_to_metres() followed by remove_border_outliers() with config.outlier_threshold_m and
 /// config.outlier_threshold_per_m2, fused into one pass over the frame; bit-for-bit equal to
 /// calling the two in sequence. With `tracking_out`, the same pass also writes the depth filtered
-/// with the fixed threshold alone (outlier_threshold_per_m2 = 0) there, or leaves it empty when
-/// outlier_threshold_per_m2 is 0 (then `out` is that depth). Throws like depth_to_metres().
+/// with config.tracking_outlier_threshold_per_m2 instead there, or leaves it empty when the two
+/// growths are equal (then `out` is that depth). Throws like depth_to_metres().
 void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, Image<float>& out,
                       Image<float>* tracking_out = nullptr);
 
@@ -133,14 +133,12 @@ void build_pyramid(const Image<float>& filtered_m, const Intrinsics& intrinsics,
 void build_pyramid(const Image<float>& filtered_m, const Intrinsics& intrinsics, DepthPyramid& out);
 
 /// Everything preprocessing produces for one frame; keep one per pipeline slot and refill it.
-/// Tracking and fusion read differently filtered depth: ICP needs only the surest pixels and does
-/// best with the paper's fixed border-outlier threshold (7-Scenes RedKitchen ATE 36.5 mm against
-/// 42.2 mm with the depth-scaled one), while integration needs the far pixels that only the
-/// depth-scaled threshold keeps (a noisy synthetic corner's far wall).
+/// Tracking and fusion may read differently filtered depth (outlier_threshold_per_m2 and
+/// tracking_outlier_threshold_per_m2).
 struct PreprocessedFrame {
   Image<float>
       depth_m;  ///< metres, range-clipped, border outliers removed: fused; SSAO "raw" input
-  /// depth_m with the fixed outlier threshold alone; empty when that is depth_m itself
+  /// depth_m with the tracking outlier threshold; empty when that is depth_m itself
   Image<float> tracking_m;
   Image<float> filtered_m;  ///< tracking_depth() after the bilateral filter
   DepthPyramid pyramid;     ///< tracking pyramid built from filtered_m with frame.intrinsics

@@ -25,7 +25,8 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.status = TrackingStatus::kGood;
     step.T_world_camera = T_world_last_;
   } else {
-    step.icp = icp(frame.pyramid, *model_, T_world_last_, config_.tracking, icp_workspace_);
+    const RaycastResult& reference = first_frame_reference_ ? *first_frame_reference_ : *model_;
+    step.icp = icp(frame.pyramid, reference, T_world_last_, config_.tracking, icp_workspace_);
     step.status = step.icp.status;
     step.T_world_camera =
         step.icp.status == TrackingStatus::kLost ? T_world_last_ : step.icp.T_world_camera;
@@ -58,12 +59,28 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
   raycast(volume_, model_intrinsics, step.T_world_camera, config_.fusion, *raycast_out,
           use_hint ? &hint : nullptr);
   model_ = std::move(raycast_out);
+  if (step.new_model && use_hint) {
+    // A model of one frame is that frame's raw depth: at 2-3 m from a Kinect v1 its raycast
+    // scatters by a centimetre and more, and tracking the second frame against it slides by
+    // centimetres along a room's weakly constrained directions. The frame's own filtered maps at
+    // the raycast's resolution are the better reference until a second frame is fused.
+    auto reference = std::make_shared<RaycastResult>();
+    reference->T_world_camera = step.T_world_camera;
+    reference->depth_m = hint;
+    reference->maps = frame.pyramid.maps[level];
+    for (int y = 0; y < hint.height(); ++y)
+      for (int x = 0; x < hint.width(); ++x) reference->hits += hint(x, y) > 0.0f ? 1 : 0;
+    first_frame_reference_ = std::move(reference);
+  } else if (step.integrated) {
+    first_frame_reference_.reset();
+  }
   return step;
 }
 
 void Reconstruction::reset() {
   volume_.reset();
   model_.reset();
+  first_frame_reference_.reset();
   T_world_last_ = Pose();
 }
 

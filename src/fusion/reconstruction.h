@@ -37,6 +37,8 @@ class Reconstruction {
   /// next tracking reference (keep it unchanged afterwards: it is shared from then on). When lost,
   /// `raycast_out` is left untouched and the reference stays the last good one, so tracking keeps
   /// trying from there and recovers when the camera comes back.
+  /// While the model holds its first frame alone, the next frame is tracked against that frame's
+  /// filtered maps at the raycast's resolution (its pyramid level) instead of the raycast.
   /// With `integrate` false (paused) the frame is tracked and raycast but not fused. The raycast
   /// has the resolution of pyramid level fusion.raycast_level of `intrinsics`, but at least 320
   /// pixels across (its maps carry their intrinsics), and uses the fused frame's depth at that
@@ -59,6 +61,9 @@ class Reconstruction {
   TsdfVolume volume_;
   IcpWorkspace icp_workspace_;
   std::shared_ptr<const RaycastResult> model_;
+  /// The first frame's own filtered maps, tracked against instead of model_ while the model holds
+  /// that frame alone (null otherwise).
+  std::shared_ptr<const RaycastResult> first_frame_reference_;
   Pose T_world_last_;
   std::size_t frames_lost_ = 0;
 };

@@ -181,26 +181,114 @@ TEST(Icp, FastAndPortableSystemsMatchReferenceUnderMotionNoiseAndEveryStep) {
   TrackingConfig config;
   config.huber_delta_m = 0.002;
   config.max_normal_angle_deg = 10.0;
-  for (int level = 0; level < kPyramidLevels; ++level) {
-    for (int step = 1; step <= 3; ++step) {
-      SCOPED_TRACE("level " + std::to_string(level) + " step " + std::to_string(step));
-      const PointMaps& maps = frame.maps[level];
-      const IcpSystem ref = icp_system_reference(maps, t.model.maps, T_model_camera, config, step);
-      const IcpSystem fast = icp_system(maps, t.model.maps, T_model_camera, config, step);
-      const IcpSystem portable =
-          icp_system_portable(maps, t.model.maps, T_model_camera, config, step);
-      EXPECT_GT(ref.inliers, 500);
-      EXPECT_LT(ref.inliers, ref.valid * 9 / 10);  // a real share of the pixels is rejected
-      for (const IcpSystem* s : {&fast, &portable}) {
-        SCOPED_TRACE(s == &fast ? "fast" : "portable");
-        EXPECT_EQ(s->valid, ref.valid);
-        EXPECT_EQ(s->inliers, ref.inliers);
-        EXPECT_LT((s->A - ref.A).norm(), 1e-5 * ref.A.norm());
-        EXPECT_LT((s->b - ref.b).norm(), 1e-5 * std::sqrt(ref.A.trace() * ref.residual_sq));
-        EXPECT_NEAR(s->residual_sq, ref.residual_sq, 1e-5 * ref.residual_sq);
+  for (const double noise_depth : {0.0, 1.0})
+    for (int level = 0; level < kPyramidLevels; ++level) {
+      for (int step = 1; step <= 3; ++step) {
+        config.noise_reference_depth_m = noise_depth;
+        SCOPED_TRACE("level " + std::to_string(level) + " step " + std::to_string(step) +
+                     " noise depth " + std::to_string(noise_depth));
+        const PointMaps& maps = frame.maps[level];
+        const IcpSystem ref =
+            icp_system_reference(maps, t.model.maps, T_model_camera, config, step);
+        const IcpSystem fast = icp_system(maps, t.model.maps, T_model_camera, config, step);
+        const IcpSystem portable =
+            icp_system_portable(maps, t.model.maps, T_model_camera, config, step);
+        EXPECT_GT(ref.inliers, 500);
+        EXPECT_LT(ref.inliers, ref.valid * 9 / 10);  // a real share of the pixels is rejected
+        for (const IcpSystem* s : {&fast, &portable}) {
+          SCOPED_TRACE(s == &fast ? "fast" : "portable");
+          EXPECT_EQ(s->valid, ref.valid);
+          EXPECT_EQ(s->inliers, ref.inliers);
+          EXPECT_LT((s->A - ref.A).norm(), 1e-5 * ref.A.norm());
+          EXPECT_LT((s->b - ref.b).norm(), 1e-5 * std::sqrt(ref.A.trace() * ref.residual_sq));
+          EXPECT_NEAR(s->residual_sq, ref.residual_sq, 1e-5 * ref.residual_sq);
+        }
       }
     }
+}
+
+/// Point maps of the plane z = depth_m facing the camera (normal (0, 0, -1)) at `k`.
+PointMaps plane_maps(const Intrinsics& k, float depth_m) {
+  PointMaps m;
+  m.intrinsics = k;
+  m.vertices.resize(k.width, k.height, Eigen::Vector3f::Zero());
+  m.normals.resize(k.width, k.height, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x)
+      m.vertices(x, y) = k.unproject(static_cast<float>(x), static_cast<float>(y), depth_m);
+  return m;
+}
+
+TEST(Icp, DepthNoiseWeightScalesHuberAndWeightBySquaredDepth) {
+  const Intrinsics k = kKinect.scaled(2);
+  const PointMaps model = plane_maps(k, 2.0f);
+  TrackingConfig config;
+  config.huber_delta_m = 0.005;
+  // At the model's own pose every residual is 0: the weight is 1 / s^2, s = (2 m / 1 m)^2 = 4.
+  config.noise_reference_depth_m = 0.0;
+  const IcpSystem flat = icp_system_reference(model, model, Pose(), config);
+  config.noise_reference_depth_m = 1.0;
+  const IcpSystem weighted = icp_system_reference(model, model, Pose(), config);
+  ASSERT_GT(flat.inliers, 1000);
+  EXPECT_EQ(weighted.inliers, flat.inliers);
+  EXPECT_LT((weighted.A - flat.A / 16.0).norm(), 1e-9 * flat.A.norm());
+  // Nearer than the reference depth nothing changes.
+  config.noise_reference_depth_m = 2.5;
+  EXPECT_EQ(icp_system_reference(model, model, Pose(), config).A, flat.A);
+  // A frame 1 cm behind the model: |r| = 1 cm is above huber_delta_m (weight 0.5) but below
+  // huber_delta_m * s (s = 2.01^2 at the frame's depth), so the weight is 1 / s^2 alone.
+  const PointMaps frame = plane_maps(k, 2.01f);
+  config.noise_reference_depth_m = 0.0;
+  const IcpSystem huber = icp_system_reference(frame, model, Pose(), config);
+  config.noise_reference_depth_m = 1.0;
+  const IcpSystem scaled = icp_system_reference(frame, model, Pose(), config);
+  const double s = 2.01 * 2.01;
+  EXPECT_NEAR(huber.b[5], 0.5 * 0.01 * huber.inliers,
+              1e-4 * huber.inliers * 0.01);  // r = -1 cm, J_z = -1
+  EXPECT_NEAR(scaled.b[5] / huber.b[5], 2.0 / (s * s), 1e-4);
+  for (const IcpSystem& fast : {icp_system(frame, model, Pose(), config),
+                                icp_system_portable(frame, model, Pose(), config)}) {
+    EXPECT_EQ(fast.inliers, scaled.inliers);
+    EXPECT_LT((fast.A - scaled.A).norm(), 1e-5 * scaled.A.norm());
+    EXPECT_LT((fast.b - scaled.b).norm(), 1e-5 * scaled.b.norm());
   }
+}
+
+TEST(Icp, SmoothModelNormalsAveragesOneSurfaceOnly) {
+  // Left half: the plane z = 1 with normals alternating between two tilts of 20 degrees about
+  // the y axis, whose normalised sum is (0, 0, -1); right half: z = 2 with a third normal.
+  const Intrinsics k{16, 8, 100.0, 100.0, 7.5, 3.5};  // 1-2 cm between pixels
+  PointMaps in;
+  in.intrinsics = k;
+  in.vertices.resize(16, 8, Eigen::Vector3f::Zero());
+  in.normals.resize(16, 8, Eigen::Vector3f::Zero());
+  const float a = static_cast<float>(20.0 * M_PI / 180.0);
+  const Eigen::Vector3f left_a(std::sin(a), 0.0f, -std::cos(a)),
+      left_b(-std::sin(a), 0.0f, -std::cos(a));
+  const Eigen::Vector3f right = Eigen::Vector3f(0.3f, 0.1f, -1.0f).normalized();
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 16; ++x) {
+      const float z = x < 8 ? 1.0f : 2.0f;
+      in.vertices(x, y) = k.unproject(static_cast<float>(x), static_cast<float>(y), z);
+      in.normals(x, y) = x >= 8 ? right : ((x + y) % 2 == 0 ? left_a : left_b);
+    }
+  in.vertices(12, 4).setZero();  // no vertex: stays without a normal, is no neighbour
+  in.normals(12, 4).setZero();
+  PointMaps out;
+  smooth_model_normals(in, 1, 0.05f, out);
+  EXPECT_EQ(out.intrinsics, k);
+  EXPECT_EQ(out.vertices, in.vertices);
+  // An interior left pixel sums 5 of one tilt and 4 of the other: the x components leave one
+  // tilt's sin(a) over a length of sqrt(sin^2 a + 81 cos^2 a).
+  const float len = std::sqrt(std::sin(a) * std::sin(a) + 81.0f * std::cos(a) * std::cos(a));
+  const Eigen::Vector3f interior(std::sin(a) / len, 0.0f, -9.0f * std::cos(a) / len);
+  EXPECT_LT((out.normals(4, 4) - interior).norm(), 1e-6f);  // (4 + 4) even: 5 of left_a
+  // Next to the 1 m depth jump (x = 7) the right half's normals are not averaged in: the
+  // window holds 3 x 2 pixels of the left half, 3 of each tilt, whose sum is straight back.
+  EXPECT_LT((out.normals(7, 4) - Eigen::Vector3f(0.0f, 0.0f, -1.0f)).norm(), 1e-6f);
+  EXPECT_LT((out.normals(8, 4) - right).norm(), 1e-6f);
+  EXPECT_LT((out.normals(11, 4) - right).norm(), 1e-6f);
+  EXPECT_EQ(out.normals(12, 4), Eigen::Vector3f::Zero());
 }
 
 TEST(Icp, SmallMapsMatchTheirLastPixelInsideAFastBlock) {

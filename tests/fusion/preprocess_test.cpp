@@ -291,26 +291,30 @@ TEST(PreprocessDepth, FusedEqualsSeparateSteps) {
         f.depth(x, y) = v;
       }
     for (double t : {0.02, 0.0, 0.001})
-      for (double per_m2 : {0.0, 0.006}) {
-        PreprocessConfig config;
-        config.outlier_threshold_m = t;
-        config.outlier_threshold_per_m2 = per_m2;
-        Image<float> metres, separate, fused, fixed_separate, fixed_fused, fused_alone;
-        depth_to_metres(f, config, metres);
-        remove_border_outliers_reference(metres, static_cast<float>(t),
-                                         static_cast<float>(per_m2), separate);
-        remove_border_outliers_reference(metres, static_cast<float>(t), 0.0f, fixed_separate);
-        preprocess_depth(f, config, fused, &fixed_fused);
-        preprocess_depth(f, config, fused_alone);
-        EXPECT_TRUE(bitwise_equal(fused, separate)) << w << "x" << h << " t=" << t;
-        EXPECT_TRUE(bitwise_equal(fused_alone, separate)) << w << "x" << h << " t=" << t;
-        // The tracking depth: the fixed threshold alone, or empty when that is `fused` itself.
-        if (per_m2 > 0.0 && t > 0.0) {
-          EXPECT_TRUE(bitwise_equal(fixed_fused, fixed_separate)) << w << "x" << h << " t=" << t;
-        } else {
-          EXPECT_TRUE(fixed_fused.empty());
+      for (double per_m2 : {0.0, 0.006})
+        for (double tracking_per_m2 : {0.0, 0.004, 0.006}) {
+          PreprocessConfig config;
+          config.outlier_threshold_m = t;
+          config.outlier_threshold_per_m2 = per_m2;
+          config.tracking_outlier_threshold_per_m2 = tracking_per_m2;
+          Image<float> metres, separate, fused, tracking_separate, tracking_fused, fused_alone;
+          depth_to_metres(f, config, metres);
+          remove_border_outliers_reference(metres, static_cast<float>(t),
+                                           static_cast<float>(per_m2), separate);
+          remove_border_outliers_reference(metres, static_cast<float>(t),
+                                           static_cast<float>(tracking_per_m2), tracking_separate);
+          preprocess_depth(f, config, fused, &tracking_fused);
+          preprocess_depth(f, config, fused_alone);
+          EXPECT_TRUE(bitwise_equal(fused, separate)) << w << "x" << h << " t=" << t;
+          EXPECT_TRUE(bitwise_equal(fused_alone, separate)) << w << "x" << h << " t=" << t;
+          // The tracking depth with its own growth, or empty when that is `fused` itself.
+          if (per_m2 != tracking_per_m2 && t > 0.0) {
+            EXPECT_TRUE(bitwise_equal(tracking_fused, tracking_separate))
+                << w << "x" << h << " t=" << t << " tracking_per_m2=" << tracking_per_m2;
+          } else {
+            EXPECT_TRUE(tracking_fused.empty());
+          }
         }
-      }
   }
 }
 
@@ -366,7 +370,6 @@ TEST(PreprocessRealData, FastEqualsReferenceOnRedKitchen) {
   EXPECT_LT(share, 0.2);
   std::cout << "[ info     ] border outliers removed: " << 100.0 * share << " % of valid pixels\n";
 }
-
 
 }  // namespace
 }  // namespace aoscan
