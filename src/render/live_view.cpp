@@ -122,6 +122,13 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
       if (dt > 0) draw_fps = draw_fps == 0.0 ? 1.0 / dt : 0.9 * draw_fps + 0.1 / dt;
       if (options.max_redraws > 0 && result.redraws >= options.max_redraws) break;
     }
+    // Stopped at the run's end: a display that went away before it is still reported, also when
+    // this low-priority thread did not get to run between the loss and the stop.
+    if (result.outcome == LiveViewResult::Outcome::kStopped &&
+        window->poll_events(0.0).display_lost) {
+      result.outcome = LiveViewResult::Outcome::kDisplayLost;
+      result.message = "the display " + window->display_name() + " closed";
+    }
   }
   if (result.outcome == LiveViewResult::Outcome::kDisplayLost)
     spdlog::warn("live view lost: {}; continuing headless", result.message);
