@@ -87,13 +87,50 @@ float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::V
 // ---------------------------------------------------------------------------------------------
 // Fast path: estimator-specialised loops over precomputed per-class offsets.
 
+/// The vector v = q - p from the centre point p to the surface point q under the screen offset
+/// `offset` (unit disk, scaled by rx, ry pixels) of pixel (x, y), and d2 = |v|^2; false when the
+/// sample falls outside the image, on the pixel itself, on a pixel without a surface or on p.
+inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
+                          float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
+                          float& d2) {
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  const int sx = offset_px_fast(x, offset.x(), rx);
+  const int sy = offset_px_fast(y, offset.y(), ry);
+  if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) return false;
+  const Eigen::Vector3f& q = maps.vertices.data()[static_cast<std::size_t>(sy) * w + sx];
+  if (!(q.z() > 0.0f) || !q.allFinite()) return false;
+  v = q - p;
+  d2 = v.squaredNorm();
+  return d2 > 0.0f;
+}
+
+/// A GTAO slice: the plane through the view direction and the screen direction `dir`, with the
+/// length of the normal projected into it and that projected normal's angle n_ang from the view
+/// direction (cos_n = its cosine).
+struct Slice {
+  float proj_len, cos_n, n_ang;
+};
+
+/// Sets up the slice of screen direction `dir`; false when the normal is (nearly) perpendicular
+/// to the slice plane.
+inline bool make_slice(const Eigen::Vector2f& dir2, const Eigen::Vector3f& view,
+                       const Eigen::Vector3f& n, Slice& out) {
+  const Eigen::Vector3f dir(dir2.x(), dir2.y(), 0.0f);
+  const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
+  const Eigen::Vector3f axis = ortho.cross(view).normalized();
+  const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
+  out.proj_len = proj_n.norm();
+  if (!(out.proj_len > 1e-6f)) return false;
+  out.cos_n = std::min(std::max(proj_n.dot(view) / out.proj_len, 0.0f), 1.0f);
+  out.n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(out.cos_n);
+  return true;
+}
+
 template <AoEstimator E>
 PixelAo fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
                       const Eigen::Vector3f& n) {
   const PointMaps& maps = *s.maps;
-  const int w = maps.vertices.width();
-  const int h = maps.vertices.height();
-  const Eigen::Vector3f* verts = maps.vertices.data();
   const int count = s.pattern->samples;
   const Eigen::Vector2f* offs = s.pattern->offsets.data() + pattern_class(x, y) * count;
   const float rx = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
@@ -103,14 +140,9 @@ PixelAo fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
   float sum = 0.0f;
   int counted = 0;
   for (int k = 0; k < count; ++k) {
-    const int sx = offset_px_fast(x, offs[k].x(), rx);
-    const int sy = offset_px_fast(y, offs[k].y(), ry);
-    if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
-    const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
-    if (!(q.z() > 0.0f) || !q.allFinite()) continue;
-    const Eigen::Vector3f v = q - p;
-    const float d2 = v.squaredNorm();
-    if (!(d2 > 0.0f)) continue;
+    Eigen::Vector3f v;
+    float d2 = 0.0f;
+    if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2)) continue;
     const float nv = n.dot(v) - bias_m;
     ++counted;
     if constexpr (E == AoEstimator::kAlchemy) {
@@ -140,9 +172,6 @@ float integrate_arc(float h, float n, float cos_n, float sin_n) {
 PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
                         const Eigen::Vector3f& n) {
   const PointMaps& maps = *s.maps;
-  const int w = maps.vertices.width();
-  const int h = maps.vertices.height();
-  const Eigen::Vector3f* verts = maps.vertices.data();
   const SsaoPattern& pat = *s.pattern;
   const int cls = pattern_class(x, y);
   const Eigen::Vector2f* offs = pat.offsets.data() + cls * pat.samples;
@@ -153,27 +182,17 @@ PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f
   float visibility = 0.0f, open = 0.0f;
   int counted = 0;
   for (int sl = 0; sl < pat.slices; ++sl) {
-    const Eigen::Vector3f dir(dirs[sl].x(), dirs[sl].y(), 0.0f);
-    const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
-    const Eigen::Vector3f axis = ortho.cross(view).normalized();
-    const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
-    const float proj_len = proj_n.norm();
-    if (!(proj_len > 1e-6f)) continue;
-    const float cos_n = std::min(std::max(proj_n.dot(view) / proj_len, 0.0f), 1.0f);
-    const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+    Slice slice;
+    if (!make_slice(dirs[sl], view, n, slice)) continue;
+    const float proj_len = slice.proj_len, cos_n = slice.cos_n, n_ang = slice.n_ang;
     float horizon_cos[2] = {std::cos(n_ang + kHalfPiF), std::cos(n_ang - kHalfPiF)};
     const float low_cos[2] = {horizon_cos[0], horizon_cos[1]};
     for (int side = 0; side < 2; ++side) {
       const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
       for (int k = 0; k < pat.steps; ++k) {
-        const int sx = offset_px_fast(x, so[k].x(), rx);
-        const int sy = offset_px_fast(y, so[k].y(), ry);
-        if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
-        const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
-        if (!(q.z() > 0.0f) || !q.allFinite()) continue;
-        const Eigen::Vector3f v = q - p;
-        const float d2 = v.squaredNorm();
-        if (!(d2 > 0.0f)) continue;
+        Eigen::Vector3f v;
+        float d2 = 0.0f;
+        if (!sample_vector(maps, x, y, so[k], rx, ry, p, v, d2)) continue;
         ++counted;
         const float d = std::sqrt(d2);
         const float keep = 1.0f - smoothstep01(d, s.t_max_m);
@@ -204,9 +223,6 @@ PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f
 PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
                             const Eigen::Vector3f& n) {
   const PointMaps& maps = *s.maps;
-  const int w = maps.vertices.width();
-  const int h = maps.vertices.height();
-  const Eigen::Vector3f* verts = maps.vertices.data();
   const SsaoPattern& pat = *s.pattern;
   const int cls = pattern_class(x, y);
   const Eigen::Vector2f* offs = pat.offsets.data() + cls * pat.samples;
@@ -218,14 +234,9 @@ PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vect
   float visibility = 0.0f, open = 0.0f;
   int counted = 0;
   for (int sl = 0; sl < pat.slices; ++sl) {
-    const Eigen::Vector3f dir(dirs[sl].x(), dirs[sl].y(), 0.0f);
-    const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
-    const Eigen::Vector3f axis = ortho.cross(view).normalized();
-    const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
-    const float proj_len = proj_n.norm();
-    if (!(proj_len > 1e-6f)) continue;
-    const float cos_n = std::min(std::max(proj_n.dot(view) / proj_len, 0.0f), 1.0f);
-    const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+    Slice slice;
+    if (!make_slice(dirs[sl], view, n, slice)) continue;
+    const float proj_len = slice.proj_len, cos_n = slice.cos_n, n_ang = slice.n_ang;
     const float sin_n = std::sin(n_ang);
     float slice_visibility = 0.0f, slice_open = 0.0f;
     for (int side = 0; side < 2; ++side) {
@@ -236,14 +247,9 @@ PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vect
       float side_visibility = arc;
       const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
       for (int k = 0; k < pat.steps; ++k) {
-        const int sx = offset_px_fast(x, so[k].x(), rx);
-        const int sy = offset_px_fast(y, so[k].y(), ry);
-        if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) continue;
-        const Eigen::Vector3f& q = verts[static_cast<std::size_t>(sy) * w + sx];
-        if (!(q.z() > 0.0f) || !q.allFinite()) continue;
-        const Eigen::Vector3f v = q - p;
-        const float d2 = v.squaredNorm();
-        if (!(d2 > 0.0f)) continue;
+        Eigen::Vector3f v;
+        float d2 = 0.0f;
+        if (!sample_vector(maps, x, y, so[k], rx, ry, p, v, d2)) continue;
         ++counted;
         const Eigen::Vector3f vb = v - lowered;
         const float vb_len = vb.norm();
