@@ -9,8 +9,6 @@
 #include <mutex>
 #include <thread>
 
-#include <tbb/task_arena.h>
-
 #include "core/log.h"
 #include "pipeline/bounded_queue.h"
 #include "pipeline/frame_pool.h"
@@ -133,30 +131,15 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
   return wall_s > 0 ? 100.0 * (thread_cpu_s() - cpu_start_s) / wall_s : 0.0;
 }
 
-tbb::task_arena::priority arena_priority(StagePriority priority) {
-  switch (priority) {
-    case StagePriority::kLow:
-      return tbb::task_arena::priority::low;
-    case StagePriority::kHigh:
-      return tbb::task_arena::priority::high;
-    case StagePriority::kNormal:
-      break;
-  }
-  return tbb::task_arena::priority::normal;
-}
-
 void stage_loop(const StageDef& stage, std::size_t index, FrameQueue& in, FrameQueue* out,
                 StageStats& stats, StageStats* latency, StageStats* end_to_end, ChainState& state,
                 const PipelineOptions& options, const std::optional<std::size_t>& expected) {
-  // One slot of the arena is the stage thread's own; workers join it by priority.
-  tbb::task_arena arena(tbb::task_arena::automatic, 1, arena_priority(stage.priority));
   while (std::optional<FramePtr> item = in.pop()) {
     FrameWork& frame = **item;
     const auto t0 = Clock::now();
     if (latency)
       latency->add_ms(std::chrono::duration<double, std::milli>(t0 - frame.raw.arrived_at).count());
-    Status status = Status::ok();
-    arena.execute([&] { status = run_guarded(stage, frame); });
+    const Status status = run_guarded(stage, frame);
     const double ms = ms_since(t0);
     stats.add_ms(ms);
     if (index < frame.stage_ms.size()) frame.stage_ms[index] = ms;

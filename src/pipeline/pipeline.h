@@ -58,15 +58,9 @@ struct FrameWork {
 
 /// A processing step of the chain. It runs on its own thread; `process` returns ok to pass the
 /// frame on, corrupt_frame to skip it (counted), anything else to stop the chain.
-/// How a stage's data-parallel work (TBB loops) competes for the shared worker threads: each
-/// stage runs in its own task arena of this priority, so that the workers serve the higher ones
-/// first and a stage waiting on its own loop never runs another stage's tasks meanwhile.
-enum class StagePriority { kLow, kNormal, kHigh };
-
 struct StageDef {
   std::string name;
   std::function<Status(FrameWork&)> process;
-  StagePriority priority = StagePriority::kNormal;
 };
 
 /// Counts over one run.

@@ -20,8 +20,7 @@ std::vector<StageDef> Processing::stages() {
   return {
       {"preprocess", [this](FrameWork& frame) { return preprocess(frame); }},
       {"filter", [this](FrameWork& frame) { return filter(frame); }},
-      // The model's one writer and the chain's longest stage: its loops come first.
-      {"track", [this](FrameWork& frame) { return track(frame); }, StagePriority::kHigh},
+      {"track", [this](FrameWork& frame) { return track(frame); }},
       {"ssao", [this](FrameWork& frame) { return ssao(frame); }},
       {"mvao", [this](FrameWork& frame) { return mvao(frame); }},
   };

@@ -300,8 +300,7 @@ SessionResult run_session(Source& source, const SessionOptions& options,
     view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
     processing.set_view_products(true, options.snapshot_dir.empty() ? kWindowProductsEvery : 1);
     ViewStage* stage = view.get();
-    stages.push_back(
-        {"view", [stage](FrameWork& frame) { return stage->process(frame); }, StagePriority::kLow});
+    stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
   }
 
   ViewCommandQueue own_commands;

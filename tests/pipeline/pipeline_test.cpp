@@ -3,14 +3,11 @@
 
 #include <atomic>
 #include <condition_variable>
-#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include "fake_source.h"
 
@@ -55,48 +52,6 @@ TEST(Pipeline, ReplayDeliversEveryFrameOnceInOrder) {
   EXPECT_EQ(r.stages[0].name(), "capture");
   EXPECT_EQ(r.stages[2].samples_ms().size(), 300u);
   EXPECT_GT(r.wall_s, 0.0);
-}
-
-TEST(Pipeline, StagesOfEveryPriorityRunTheirParallelLoops) {
-  // Each stage sums 0..n-1 with a TBB loop in its arena while the other stages do the same: every
-  // frame gets every stage's exact sum, in order, whatever the priorities.
-  FakeSource source(60);
-  constexpr int kN = 20000;
-  std::mutex mutex;
-  std::vector<std::pair<std::string, std::uint64_t>> seen;
-  std::atomic<int> wrong_sums{0};
-  auto stage = [&](std::string name, StagePriority priority) {
-    return StageDef{name,
-                    [&, name](FrameWork& f) {
-                      const long long sum = tbb::parallel_reduce(
-                          tbb::blocked_range<int>(0, kN, 64), 0LL,
-                          [](const tbb::blocked_range<int>& r, long long acc) {
-                            for (int i = r.begin(); i < r.end(); ++i) acc += i;
-                            return acc;
-                          },
-                          std::plus<long long>());
-                      if (sum != static_cast<long long>(kN) * (kN - 1) / 2) ++wrong_sums;
-                      std::lock_guard<std::mutex> lock(mutex);
-                      seen.emplace_back(name, f.raw.sequence);
-                      return Status::ok();
-                    },
-                    priority};
-  };
-  const std::vector<StageDef> stages = {stage("low", StagePriority::kLow),
-                                        stage("high", StagePriority::kHigh),
-                                        stage("normal", StagePriority::kNormal)};
-  std::atomic<bool> stop{false};
-  const PipelineResult r = run_pipeline(source, stages, PipelineOptions{}, stop);
-  EXPECT_TRUE(r.status.is_ok()) << r.status.message();
-  EXPECT_EQ(r.counters.frames_processed, 60u);
-  EXPECT_EQ(wrong_sums.load(), 0);
-  for (const char* name : {"low", "high", "normal"}) {
-    std::vector<std::uint64_t> order;
-    for (const auto& [stage_name, sequence] : seen)
-      if (stage_name == name) order.push_back(sequence);
-    ASSERT_EQ(order.size(), 60u) << name;
-    for (std::size_t i = 0; i < order.size(); ++i) EXPECT_EQ(order[i], i) << name;
-  }
 }
 
 TEST(Pipeline, MaxFramesStopsEarly) {
