@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/status.h"
+#include "fusion/grid_traversal.h"
 #include "fusion/simd.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -63,35 +64,11 @@ inline void emit_key(const Eigen::Vector3i& b, std::uint64_t* cache,
 }
 
 /// Block keys of the block-grid cells crossed by the segment a-b (block-grid units, where cell
-/// floor(q) is block q): Amanatides-Woo traversal, appended to `out` unless cached.
-void traverse_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b, std::uint64_t* cache,
-                      std::vector<std::uint64_t>& out) {
-  const Eigen::Vector3f dir = b - a;
-  Eigen::Vector3i cur = floor_cell(a);
-  const Eigen::Vector3i end = floor_cell(b);
-  Eigen::Vector3i step;
-  Eigen::Vector3f t_max, t_delta;
-  for (int i = 0; i < 3; ++i) {
-    step[i] = dir[i] > 0 ? 1 : (dir[i] < 0 ? -1 : 0);
-    if (step[i] == 0) {
-      t_max[i] = std::numeric_limits<float>::infinity();
-      t_delta[i] = std::numeric_limits<float>::infinity();
-    } else {
-      const float boundary = static_cast<float>(cur[i] + (step[i] > 0 ? 1 : 0));
-      t_max[i] = (boundary - a[i]) / dir[i];
-      t_delta[i] = std::abs(1.0f / dir[i]);
-    }
-  }
-  const int steps = (end - cur).cwiseAbs().sum();
-  for (int n = 0;; ++n) {
-    emit_key(cur, cache, out);
-    if (n >= steps) break;
-    int axis = 0;
-    if (t_max[1] < t_max[axis]) axis = 1;
-    if (t_max[2] < t_max[axis]) axis = 2;
-    cur[axis] += step[axis];
-    t_max[axis] += t_delta[axis];
-  }
+/// floor(q) is block q; ia, ib = floor(a), floor(b)), appended to `out` unless cached.
+inline void traverse_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                             const Eigen::Vector3i& ia, const Eigen::Vector3i& ib,
+                             std::uint64_t* cache, std::vector<std::uint64_t>& out) {
+  traverse_cells(a, b, ia, ib, [&](const Eigen::Vector3i& cell) { emit_key(cell, cache, out); });
 }
 
 bool valid_depth(float d) {
@@ -367,6 +344,7 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
     int rays = 0;
     const int y_end = std::min(depth_m.height(), (c + 1) * kRowsPerChunk);
     Eigen::Vector3i last_a = Eigen::Vector3i::Zero(), last_b = Eigen::Vector3i::Zero();
+    int last_rank[3] = {0, 0, 0};
     bool have_last = false;
     for (int y = c * kRowsPerChunk; y < y_end; ++y) {
       const float* row = depth_m.row(y);
@@ -385,24 +363,30 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
         const Eigen::Vector3f b = dir * z1 + origin;
         constexpr float kLimit = static_cast<float>(kMaxBlockCoord);
         if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
+        const Eigen::Vector3i ia = floor_cell(a), ib = floor_cell(b);
         if (!fast) {
-          traverse_segment(a, b, cache, keys);
+          traverse_segment(a, b, ia, ib, cache, keys);
           continue;
         }
-        // Fast path, the same blocks: a segment whose end cells are equal or face neighbours
-        // crosses exactly those cells, in that order; when they equal the previous pixel's such
-        // pair, every key was just emitted.
-        const Eigen::Vector3i ia = floor_cell(a), ib = floor_cell(b);
-        if ((ib - ia).cwiseAbs().sum() > 1) {
-          traverse_segment(a, b, cache, keys);
+        // Fast path, the same blocks: a segment at most one cell from its first cell per axis
+        // crosses the cells its crossing order (ranks) gives; when the end cells and the order
+        // equal the previous such pixel's, every key was just emitted.
+        if ((ib - ia).cwiseAbs().maxCoeff() > 1) {
+          traverse_segment(a, b, ia, ib, cache, keys);
           have_last = false;
           continue;
         }
-        if (have_last && ia == last_a && ib == last_b) continue;
+        int rank[3];
+        short_path_ranks(a, b, ia, ib, rank);
+        if (have_last && ia == last_a && ib == last_b && rank[0] == last_rank[0] &&
+            rank[1] == last_rank[1] && rank[2] == last_rank[2])
+          continue;
         emit_key(ia, cache, keys);
-        if (ib != ia) emit_key(ib, cache, keys);
+        emit_short_path(ia, ib, rank,
+                        [&](const Eigen::Vector3i& cell) { emit_key(cell, cache, keys); });
         last_a = ia;
         last_b = ib;
+        std::copy(rank, rank + 3, last_rank);
         have_last = true;
       }
     }
