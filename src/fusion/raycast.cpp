@@ -130,12 +130,6 @@ void prepare(const Intrinsics& intrinsics, const Pose& T_world_camera, RaycastRe
   result.hits = 0;
 }
 
-int count_hits(const Image<float>& depth) {
-  int hits = 0;
-  for (std::size_t i = 0; i < depth.size(); ++i) hits += depth.data()[i] > 0.0f ? 1 : 0;
-  return hits;
-}
-
 void check_inputs(const Intrinsics& intrinsics, const FusionConfig& config) {
   if (!intrinsics.valid()) throw usage_error("raycast: invalid intrinsics");
   if (!(config.raycast_min_depth_m < config.raycast_max_depth_m))
@@ -372,6 +366,12 @@ bool search_near(TsdfSampler& sampler, const Ray& ray, float d, float s_begin, f
 }
 
 }  // namespace
+
+int count_hits(const Image<float>& depth) {
+  int hits = 0;
+  for (std::size_t i = 0; i < depth.size(); ++i) hits += depth.data()[i] > 0.0f ? 1 : 0;
+  return hits;
+}
 
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
              const FusionConfig& config, RaycastResult& result, const Image<float>* depth_hint_m) {

@@ -39,6 +39,9 @@ void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose&
              const FusionConfig& config, RaycastResult& result,
              const Image<float>* depth_hint_m = nullptr);
 
+/// Pixels of a depth image with a surface (depth > 0): RaycastResult::hits of that depth.
+int count_hits(const Image<float>& depth);
+
 /// Plain reference of raycast(): single-threaded, a fixed step of `step_voxels` voxels through
 /// the whole depth range, trilinear samples only, no block skipping. Slow; for tests.
 void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,

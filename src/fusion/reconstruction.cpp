@@ -68,8 +68,7 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     reference->T_world_camera = step.T_world_camera;
     reference->depth_m = hint;
     reference->maps = frame.pyramid.maps[level];
-    for (int y = 0; y < hint.height(); ++y)
-      for (int x = 0; x < hint.width(); ++x) reference->hits += hint(x, y) > 0.0f ? 1 : 0;
+    reference->hits = count_hits(hint);
     first_frame_reference_ = std::move(reference);
   } else if (step.integrated) {
     first_frame_reference_.reset();
