@@ -48,7 +48,10 @@ MvaoGrid::MvaoGrid(const AoConfig& config)
                config.mesh_cell_factor) {}
 
 MvaoGrid::MvaoGrid(double cell_size_m, AoIntegration mode, int mesh_cell_factor)
-    : cell_size_m_(cell_size_m), mode_(mode), mesh_cell_factor_(std::max(mesh_cell_factor, 1)) {
+    : cell_size_m_(cell_size_m),
+      inv_cell_size_(1.0 / cell_size_m),
+      mode_(mode),
+      mesh_cell_factor_(std::max(mesh_cell_factor, 1)) {
   if (!(cell_size_m_ > 0.0) || !std::isfinite(cell_size_m_))
     throw usage_error("ao.grid_extent_m / ao.grid_resolution must give a positive cell size");
   clear();
@@ -99,9 +102,17 @@ std::size_t MvaoGrid::slot_of(std::uint64_t code) const {
   return i;
 }
 
-void MvaoGrid::grow() {
-  std::vector<std::uint64_t> old_keys(keys_.size() * 2, kEmpty);
-  std::vector<MvaoCell> old_cells(cells_.size() * 2);
+void MvaoGrid::grow() { rehash(keys_.size() * 2); }
+
+void MvaoGrid::reserve(std::size_t cells) {
+  std::size_t slots = keys_.size();
+  while (2 * cells > slots) slots *= 2;
+  if (slots != keys_.size()) rehash(slots);
+}
+
+void MvaoGrid::rehash(std::size_t slots) {
+  std::vector<std::uint64_t> old_keys(slots, kEmpty);
+  std::vector<MvaoCell> old_cells(slots);
   old_keys.swap(keys_);
   old_cells.swap(cells_);
   for (std::size_t i = 0; i < old_keys.size(); ++i) {
@@ -126,7 +137,8 @@ MvaoCell& MvaoGrid::insert(std::uint64_t code) {
 }
 
 Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
-                           const PointMaps& maps, const Pose& T_world_camera) {
+                           const PointMaps& maps, const Pose& T_world_camera,
+                           Image<std::uint32_t>* slots) {
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
   if (ao.width() != w || ao.height() != h || weights.width() != w || weights.height() != h)
@@ -135,7 +147,17 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
   const std::uint32_t stamp = static_cast<std::uint32_t>(frames_);
   const Eigen::Matrix3d R = T_world_camera.rotation();
   const Eigen::Vector3d t = T_world_camera.translation();
-  const double inv_cell = 1.0 / cell_size_m_;
+  const double inv_cell = inv_cell_size_;
+  // Room for every pixel to start a cell of its own: the table does not grow during the frame,
+  // so the slots handed out stay where they are (done with or without slots, so that the table,
+  // and with it the order of for_each_cell() and coarsened(), does not depend on them).
+  reserve(size_ + ao.size());
+  std::uint32_t* slot_out = nullptr;
+  if (slots != nullptr) {
+    slots->resize(w, h, kNoSlot);
+    slots->fill(kNoSlot);
+    slot_out = slots->data();
+  }
   const float* ao_data = ao.data();
   const float* w_data = weights.data();
   const Eigen::Vector3f* verts = maps.vertices.data();
@@ -146,6 +168,7 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
   std::uint64_t codes[kBatch];
   float batch_ao[kBatch];
   float batch_w[kBatch];
+  std::size_t batch_pixel[kBatch];
   std::uint64_t last_code = kEmpty;
   MvaoCell* last_cell = nullptr;
   const std::size_t n = ao.size();
@@ -179,6 +202,7 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
         __builtin_prefetch(&cells_[slot], 1);
       }
       codes[count] = code;
+      batch_pixel[count] = i;
       batch_ao[count] = std::min(std::max(ai, 0.0f), 1.0f);
       batch_w[count] = mode_ == AoIntegration::kMvao ? wi : 1.0f;
       ++count;
@@ -196,6 +220,8 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
       }
       cell.ao_weight_sum += batch_w[k] * batch_ao[k];
       cell.weight_sum += batch_w[k];
+      if (slot_out != nullptr)
+        slot_out[batch_pixel[k]] = static_cast<std::uint32_t>(&cell - cells_.data());
     }
     points_integrated_ += count;
   }
@@ -203,7 +229,7 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
 }
 
 std::optional<CellIndex> MvaoGrid::cell_of(const Eigen::Vector3d& p_world) const {
-  const Eigen::Vector3d p = p_world / cell_size_m_;
+  const Eigen::Vector3d p = p_world * inv_cell_size_;
   const auto cx = to_cell(p.x()), cy = to_cell(p.y()), cz = to_cell(p.z());
   if (!cx || !cy || !cz) return std::nullopt;
   return CellIndex{*cx, *cy, *cz};
@@ -222,7 +248,7 @@ void MvaoGrid::lookup_ao(const Eigen::Vector3f* vertices, std::size_t n, const P
       codes[k] = kEmpty;
       const Eigen::Vector3f& v = vertices[begin + k];
       if (v.isZero()) continue;
-      const Eigen::Vector3d p = (R * v.cast<double>() + t) / cell_size_m_;  // as cell_of()
+      const Eigen::Vector3d p = (R * v.cast<double>() + t) * inv_cell_size_;  // as cell_of()
       std::int32_t cx, cy, cz;
       if (!to_cell_fast(p.x(), cx) || !to_cell_fast(p.y(), cy) || !to_cell_fast(p.z(), cz))
         continue;
@@ -260,7 +286,7 @@ Eigen::Vector3d MvaoGrid::cell_centre(const CellIndex& c) const {
 }
 
 std::optional<float> MvaoGrid::sample(const Eigen::Vector3d& p_world) const {
-  const Eigen::Vector3d g = p_world / cell_size_m_ - Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d g = p_world * inv_cell_size_ - Eigen::Vector3d::Constant(0.5);
   if (!g.allFinite()) return std::nullopt;
   const Eigen::Vector3d base = g.array().floor();
   if ((base.array() < kMortonMin).any() || (base.array() > kMortonMax).any()) return std::nullopt;

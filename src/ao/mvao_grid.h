@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -50,8 +51,20 @@ class MvaoGrid {
   /// cell is outside the Morton range are skipped and counted in points_out_of_range(); pixels
   /// with NaN/inf values (or a negative weight) are skipped and counted in points_invalid().
   /// Returns internal() (and changes nothing) when the image sizes differ.
+  /// `slots` (optional): resized to the image and set per pixel to the table slot of the cell
+  /// the pixel went to, or kNoSlot (not integrated); valid until the next integrate(), clear()
+  /// or insertion. The table first makes room for one new cell per pixel, so that it does not
+  /// move its cells during the frame. slot_ao() reads
+  /// them: the view image of the frame just integrated, without a second table lookup.
   Status integrate(const Image<float>& ao, const Image<float>& weights, const PointMaps& maps,
-                   const Pose& T_world_camera);
+                   const Pose& T_world_camera, Image<std::uint32_t>* slots = nullptr);
+  static constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
+  /// AO of the cell in `slot` (from integrate()'s slots), NaN when it holds no observed cell.
+  float slot_ao(std::uint32_t slot) const {
+    return slot < cells_.size() && cells_[slot].weight_sum > 0.0f  // empty slots hold weight 0
+               ? cells_[slot].ao()
+               : std::numeric_limits<float>::quiet_NaN();
+  }
 
   /// Cell containing world point `p_world` (metres), or nullopt when outside the Morton range or
   /// not finite.
@@ -106,8 +119,11 @@ class MvaoGrid {
   std::size_t slot_of(std::uint64_t code) const;  // slot holding code, or the empty slot for it
   MvaoCell& insert(std::uint64_t code);
   void grow();
+  void reserve(std::size_t cells);  // room for `cells` cells at load factor <= 1/2
+  void rehash(std::size_t slots);   // moves every cell into a table of `slots` (a power of 2)
 
   double cell_size_m_;
+  double inv_cell_size_;  ///< 1 / cell_size_m_: every point-to-cell mapping multiplies by it
   AoIntegration mode_;
   int mesh_cell_factor_;
   std::vector<std::uint64_t> keys_;

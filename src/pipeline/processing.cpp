@@ -88,17 +88,23 @@ Status Processing::ssao(FrameWork& frame) const {
 
 Status Processing::mvao(FrameWork& frame) {
   if (frame.model_reset) grid_.clear();  // the old grid lies in the old model's world frame
-  Status status = Status::ok();
-  if (!frame.ssao.empty()) {
-    const PointMaps& maps =
-        config_.ao.input == AoInput::kRaw ? frame.raw_maps : frame.raycast->maps;
-    status = grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera);
-  }
   frame.view_products =
       view_products_.load() &&
       frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0;
+  Status status = Status::ok();
+  // The view image reads the cells of the pixels just integrated through their slots when the
+  // grid was fed the raycast (ao.input=raycast), the image's own maps.
+  bool have_slots = false;
+  if (!frame.ssao.empty()) {
+    const bool raw = config_.ao.input == AoInput::kRaw;
+    const PointMaps& maps = raw ? frame.raw_maps : frame.raycast->maps;
+    have_slots = frame.view_products && !raw;
+    status = grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera,
+                             have_slots ? &view_slots_ : nullptr);
+  }
   if (frame.view_products && frame.raycast)
-    mvao_image(grid_, frame.raycast->maps, frame.fusion.T_world_camera, frame.mvao);
+    mvao_image(grid_, frame.raycast->maps, frame.fusion.T_world_camera, frame.mvao,
+               have_slots && status.is_ok() ? &view_slots_ : nullptr);
   else
     frame.mvao.resize(0, 0);
   if (frame.export_mesh) write_requested_outputs(frame);

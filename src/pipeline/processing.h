@@ -82,7 +82,8 @@ class Processing {
   /// which holds one of them, so that it outlives every pointer it handed out.
   ObjectPool<RaycastResult> raycasts_;
   Reconstruction reconstruction_;  ///< written by the track stage only
-  MvaoGrid grid_;                  ///< written by the mvao stage only
+  MvaoGrid grid_;                    ///< written by the mvao stage only
+  Image<std::uint32_t> view_slots_;  ///< the grid slots of the frame's pixels, for mvao_image()
   std::vector<StampedPose> trajectory_;
   std::size_t frames_tracking_lost_ = 0;
   std::atomic<bool> reset_requested_{false};

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -16,14 +17,39 @@ constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 }  // namespace
 
 void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
-                Image<float>& out) {
-  out.resize(maps.vertices.width(), maps.vertices.height());
-  tbb::parallel_for(tbb::blocked_range<int>(0, out.height()),
-                    [&](const tbb::blocked_range<int>& r) {
-                      for (int y = r.begin(); y < r.end(); ++y)
-                        grid.lookup_ao(maps.vertices.row(y), static_cast<std::size_t>(out.width()),
-                                       T_world_camera, out.row(y));
-                    });
+                Image<float>& out, const Image<std::uint32_t>* slots) {
+  const int w = maps.vertices.width();
+  out.resize(w, maps.vertices.height());
+  if (slots != nullptr && (slots->width() != w || slots->height() != out.height()))
+    slots = nullptr;
+  tbb::parallel_for(tbb::blocked_range<int>(0, out.height()), [&](const tbb::blocked_range<int>& r) {
+    std::vector<Eigen::Vector3f> rest;  // the row's pixels without a slot, looked up together
+    std::vector<int> rest_x;
+    std::vector<float> rest_ao;
+    for (int y = r.begin(); y < r.end(); ++y) {
+      if (slots == nullptr) {
+        grid.lookup_ao(maps.vertices.row(y), static_cast<std::size_t>(w), T_world_camera,
+                       out.row(y));
+        continue;
+      }
+      const std::uint32_t* slot = slots->row(y);
+      const Eigen::Vector3f* vertices = maps.vertices.row(y);
+      float* ao = out.row(y);
+      rest.clear();
+      rest_x.clear();
+      for (int x = 0; x < w; ++x) {
+        if (slot[x] != MvaoGrid::kNoSlot) {
+          ao[x] = grid.slot_ao(slot[x]);
+        } else {
+          rest.push_back(vertices[x]);
+          rest_x.push_back(x);
+        }
+      }
+      rest_ao.resize(rest.size());
+      grid.lookup_ao(rest.data(), rest.size(), T_world_camera, rest_ao.data());
+      for (std::size_t i = 0; i < rest.size(); ++i) ao[rest_x[i]] = rest_ao[i];
+    }
+  });
 }
 
 void mvao_image_reference(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,

@@ -86,15 +86,29 @@ TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   const Pose T_world_camera(
       Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
       Eigen::Vector3d(-0.7, 0.2, 1.3));
-  ASSERT_TRUE(grid.integrate(ao, weight, maps, T_world_camera).is_ok());
+  Image<std::uint32_t> slots;
+  ASSERT_TRUE(grid.integrate(ao, weight, maps, T_world_camera, &slots).is_ok());
 
   PointMaps seen = maps;
   seen.vertices(5, 5).setZero();  // no surface
   seen.vertices(6, 5).setConstant(std::numeric_limits<float>::quiet_NaN());
   seen.vertices(7, 5) = Eigen::Vector3f(0.0f, 0.0f, 1e9f);  // outside the Morton range
-  Image<float> fast, reference;
+  Image<float> fast, from_slots, reference;
   mvao_image(grid, seen, T_world_camera, fast);
   mvao_image_reference(grid, seen, T_world_camera, reference);
+  // The slots of the frame just integrated (upper half; the lower half had no weight and is
+  // looked up): the same image for the maps that frame integrated.
+  mvao_image(grid, maps, T_world_camera, from_slots, &slots);
+  Image<float> reference_unchanged;
+  mvao_image_reference(grid, maps, T_world_camera, reference_unchanged);
+  int from_slot = 0;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float f = from_slots(x, y), r = reference_unchanged(x, y);
+      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
+      from_slot += slots(x, y) != MvaoGrid::kNoSlot ? 1 : 0;
+    }
+  EXPECT_EQ(from_slot, width * 24);
   ASSERT_EQ(fast.width(), width);
   ASSERT_EQ(fast.height(), height);
   for (int y = 0; y < height; ++y)
