@@ -184,8 +184,11 @@ void GlViewRenderer::set_texture(Texture texture, GLint internal_format, GLenum 
   }
 }
 
-void GlViewRenderer::upload(const ViewFrame& frame) {
+void GlViewRenderer::upload(const ViewFrame& frame, std::optional<View> only) {
   if (!gl_) return;
+  const auto needs = [&](std::initializer_list<View> views) {
+    return !only || std::find(views.begin(), views.end(), *only) != views.end();
+  };
   const int width = std::max(frame.intrinsics.width, 1);
   const int height = std::max(frame.intrinsics.height, 1);
   gl_->PixelStorei(GL_UNPACK_ALIGNMENT, 1);
@@ -195,30 +198,38 @@ void GlViewRenderer::upload(const ViewFrame& frame) {
   const int model = image_scale(frame.depth_m, width, height);
   const int model_w = model > 0 ? frame.depth_m.width() : 1;
   const int model_h = model > 0 ? frame.depth_m.height() : 1;
-  upload_float(kDepth, model > 0 ? &frame.depth_m : nullptr, 0.0f, model_w, model_h);
-  const bool mvao_ok = model > 0 && image_scale(frame.mvao, width, height) == model;
-  upload_float(kMvao, mvao_ok ? &frame.mvao : nullptr, -1.0f, model_w, model_h);
-  const bool ssao_ok = image_scale(frame.ssao, width, height) > 0;
-  upload_float(kSsao, ssao_ok ? &frame.ssao : nullptr, -1.0f, ssao_ok ? frame.ssao.width() : 1,
-               ssao_ok ? frame.ssao.height() : 1);
-  has_raw_depth_ = image_scale(frame.raw_depth_m, width, height) > 0;
-  if (has_raw_depth_)
-    upload_float(kRawDepth, &frame.raw_depth_m, 0.0f, frame.raw_depth_m.width(),
-                 frame.raw_depth_m.height());
-
-  staging_.assign(static_cast<std::size_t>(model_w) * model_h * 3, 0.0f);
-  if (model > 0 && image_scale(frame.normals, width, height) == model) {
-    const Eigen::Vector3f* src = frame.normals.data();
-    for (std::size_t i = 0; i < frame.normals.size(); ++i)
-      if (src[i].allFinite())
-        for (int c = 0; c < 3; ++c) staging_[3 * i + c] = src[i][c];
+  if (needs({View::kShaded, View::kNormals}))
+    upload_float(kDepth, model > 0 ? &frame.depth_m : nullptr, 0.0f, model_w, model_h);
+  if (needs({View::kShaded})) {
+    const bool mvao_ok = model > 0 && image_scale(frame.mvao, width, height) == model;
+    upload_float(kMvao, mvao_ok ? &frame.mvao : nullptr, -1.0f, model_w, model_h);
   }
-  set_texture(kNormals, GL_RGB32F, GL_RGB, GL_FLOAT, model_w, model_h, staging_.data());
+  if (needs({View::kSsao})) {
+    const bool ssao_ok = image_scale(frame.ssao, width, height) > 0;
+    upload_float(kSsao, ssao_ok ? &frame.ssao : nullptr, -1.0f, ssao_ok ? frame.ssao.width() : 1,
+                 ssao_ok ? frame.ssao.height() : 1);
+  }
+  if (needs({View::kDepth})) {
+    has_raw_depth_ = image_scale(frame.raw_depth_m, width, height) > 0;
+    if (has_raw_depth_)
+      upload_float(kRawDepth, &frame.raw_depth_m, 0.0f, frame.raw_depth_m.width(),
+                   frame.raw_depth_m.height());
+  }
+  if (needs({View::kShaded, View::kNormals})) {
+    staging_.assign(static_cast<std::size_t>(model_w) * model_h * 3, 0.0f);
+    if (model > 0 && image_scale(frame.normals, width, height) == model) {
+      const Eigen::Vector3f* src = frame.normals.data();
+      for (std::size_t i = 0; i < frame.normals.size(); ++i)
+        if (src[i].allFinite())
+          for (int c = 0; c < 3; ++c) staging_[3 * i + c] = src[i][c];
+    }
+    set_texture(kNormals, GL_RGB32F, GL_RGB, GL_FLOAT, model_w, model_h, staging_.data());
+  }
   frame_width_ = width;
   frame_height_ = height;
 
   const TriangleMesh* surface = frame.surface.get();
-  if (surface != uploaded_surface_) {
+  if (needs({View::kOrbit}) && surface != uploaded_surface_) {
     surface_ = frame.surface;
     uploaded_surface_ = surface;
     point_count_ = 0;

@@ -7,6 +7,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,8 +56,10 @@ class GlViewRenderer {
   bool init(const GlApi& gl, std::string& error, const ShaderOverrides& overrides = {});
 
   /// Uploads the images of `frame` (NaN and mismatched sizes become the views' "no data") and, when
-  /// its surface pointer changed, the surface's vertices.
-  void upload(const ViewFrame& frame);
+  /// its surface pointer changed, the surface's vertices. With `only`, just what that view draws
+  /// (the live view uploads its current view's data, again when the view changes: software GL
+  /// copies every texture on the CPU that fusion runs on).
+  void upload(const ViewFrame& frame, std::optional<View> only = std::nullopt);
   /// Draws `view` of the last uploaded frame into `rect` of the bound framebuffer. The orbit view
   /// clears the depth buffer; the caller clears colour.
   void draw(View view, const GlRect& rect, const ViewStyle& style, const OrbitCamera& orbit);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <optional>
 
 #include "core/log.h"
 #include "render/hud.h"
@@ -45,6 +46,7 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
     bool orbit_moved_by_user = false;
     const TriangleMesh* fitted_surface = nullptr;
     std::shared_ptr<const ViewFrame> shown;
+    std::optional<View> uploaded_view;  ///< the view whose data of `shown` is uploaded
     Image<Rgba8> hud;
     double draw_fps = 0.0;
     Clock::time_point last_draw = Clock::now();
@@ -83,8 +85,12 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
                      events.scroll != 0.0 || events.damaged;
       std::shared_ptr<const ViewFrame> latest = feed ? feed() : nullptr;
       if (latest && latest != shown) {
-        renderer.upload(*latest);
         shown = std::move(latest);
+        uploaded_view.reset();
+      }
+      if (shown && uploaded_view != state.view) {  // a new frame, or another view of it
+        renderer.upload(*shown, state.view);
+        uploaded_view = state.view;
         changed = true;
       }
       if (!changed && result.redraws > 0 &&

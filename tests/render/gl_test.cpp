@@ -108,9 +108,10 @@ class GlTest : public ::testing::Test {
   }
   void TearDown() override { window_.reset(); }
 
-  /// Renders `view` of `frame` at the frame's size through GL and reads it back.
+  /// Renders `view` of `frame` at the frame's size through GL and reads it back; `view_only`
+  /// uploads only what the view draws, as the live view does.
   Image<Rgb8> render_gl(const ViewFrame& frame, View view, const ViewStyle& style,
-                        const OrbitCamera& orbit = {}) {
+                        const OrbitCamera& orbit = {}, bool view_only = false) {
     const GlApi& gl = window_->gl();
     std::string error;
     GlViewRenderer renderer;
@@ -122,7 +123,10 @@ class GlTest : public ::testing::Test {
     gl.Viewport(0, 0, frame.intrinsics.width, frame.intrinsics.height);
     gl.ClearColor(bg.r / 255.0f, bg.g / 255.0f, bg.b / 255.0f, 1.0f);
     gl.Clear(GL_COLOR_BUFFER_BIT);
-    renderer.upload(frame);
+    if (view_only)
+      renderer.upload(frame, view);
+    else
+      renderer.upload(frame);
     renderer.draw(view, {0, 0, frame.intrinsics.width, frame.intrinsics.height}, style, orbit);
     Image<Rgb8> out;
     target.read(out);
@@ -144,15 +148,17 @@ TEST_F(GlTest, EveryShaderCompilesAndLinks) {
 TEST_F(GlTest, ImageViewsMatchTheCpuComposite) {
   ViewFrame frame = testing::sphere_wall_frame(160, 120);
   ViewStyle style;  // the default light: non-trivial diffuse everywhere
-  for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
-    Image<Rgb8> cpu;
-    composite_view(frame, view, cpu, style);
-    const Image<Rgb8> gpu = render_gl(frame, view, style);
-    const Comparison c = compare(cpu, gpu);
-    std::printf("[ info ] %-8s matching %.5f, max diff %d\n", view_name(view), c.matching_share,
-                c.max_diff);
-    EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
-    EXPECT_LE(c.max_diff, 8) << view_name(view);  // near-misses only, never a wrong colour
+  for (const bool view_only : {false, true}) {
+    for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+      Image<Rgb8> cpu;
+      composite_view(frame, view, cpu, style);
+      const Image<Rgb8> gpu = render_gl(frame, view, style, {}, view_only);
+      const Comparison c = compare(cpu, gpu);
+      std::printf("[ info ] %-8s%s matching %.5f, max diff %d\n", view_name(view),
+                  view_only ? " (its data only)" : "", c.matching_share, c.max_diff);
+      EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
+      EXPECT_LE(c.max_diff, 8) << view_name(view);  // near-misses only, never a wrong colour
+    }
   }
   // The NaN patches and the no-surface band really show the background in GL too.
   const Image<Rgb8> ssao = render_gl(frame, View::kSsao, style);
@@ -216,6 +222,42 @@ TEST_F(GlTest, ReuploadsOfSameAndOtherSizesShowTheNewFrame) {
     // The view's rectangle is the bottom-left w x h of the target: image row h - 1 of the frame
     // is target row 29.
     EXPECT_EQ(gpu(0, 29), shade_ssao(frame.ssao(0, h - 1), style)) << w << "x" << h;
+  }
+}
+
+TEST_F(GlTest, ViewOnlyUploadsShowTheNewFrameInThatView) {
+  // The live view uploads the current view's data of each new frame: after a full upload of one
+  // frame, a view-only upload of another shows the other in that view, whichever it is.
+  const GlApi& gl = window_->gl();
+  std::string error;
+  GlViewRenderer renderer;
+  ASSERT_TRUE(renderer.init(gl, error)) << error;
+  GlOffscreenTarget target;
+  ASSERT_TRUE(target.create(gl, 40, 30, error)) << error;
+  const ViewStyle style;
+  ViewFrame first = testing::sphere_wall_frame(40, 30);
+  first.ssao.fill(0.2f);
+  first.mvao.fill(0.2f);
+  renderer.upload(first);
+  for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+    ViewFrame second = testing::sphere_wall_frame(40, 30);
+    second.ssao.fill(0.9f);
+    second.mvao.fill(0.9f);
+    for (int y = 0; y < 30; ++y)
+      for (int x = 0; x < 20; ++x) second.raw_depth_m(x, y) = 0.0f;  // left half: no depth
+    second.normals.fill(Eigen::Vector3f(0.6f, 0.0f, -0.8f));
+    target.bind();
+    gl.Viewport(0, 0, 40, 30);
+    gl.ClearColor(0.0f, 0.0f, 0.0f, 1.0f);
+    gl.Clear(GL_COLOR_BUFFER_BIT);
+    renderer.upload(second, view);
+    renderer.draw(view, {0, 0, 40, 30}, style, OrbitCamera{});
+    Image<Rgb8> gpu, cpu;
+    target.read(gpu);
+    composite_view(second, view, cpu, style);
+    const Comparison c = compare(cpu, gpu);
+    EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
+    renderer.upload(first);  // back to the first frame everywhere
   }
 }
 
