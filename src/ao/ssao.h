@@ -30,6 +30,10 @@
 ///               rho(d) of its visibility, the arc above the final horizon is open; divided by
 ///               the open integral as for horizon. Exact on a heightfield up to the sample
 ///               spacing; thin objects read as solid (halos).
+/// n is the pixel's SSAO normal: with ao.normal_radius_px > 0, the normalised sum of the raycast
+/// normals within that many pixels whose vertices lie within ao.normal_max_distance_m of p (the
+/// raycast's nearest-voxel TSDF gradients are noisy by a few degrees on a fused noisy surface, and
+/// a tilted tangent plane raises or sinks every sample); it is also the normal of the w_n weight.
 /// Each pixel's coverage is the share of its samples counted (inside the image, on valid pixels);
 /// with ao.coverage_power p > 0 its weight is (w_d w_n) coverage^p.
 /// AO is in [0, 1] (1 = open). Invalid pixels (zero, NaN or inf vertex or normal, z <= 0) get AO 0
