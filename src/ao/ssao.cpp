@@ -63,6 +63,7 @@ struct FrameSetup {
   float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
   int normal_radius_px;
   float normal_max_distance2;  ///< normal_max_distance_m squared
+  float area_min_cos;
 };
 
 /// One pixel's SSAO and the share of its samples that were counted (inside the image, on valid
@@ -121,17 +122,32 @@ inline Eigen::Vector3f fast_smoothed_normal(const FrameSetup& s, int x, int y,
 /// sample falls outside the image, on the pixel itself, on a pixel without a surface or on p.
 inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
                           float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
-                          float& d2) {
+                          float& d2, std::size_t& index) {
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
   const int sx = offset_px_fast(x, offset.x(), rx);
   const int sy = offset_px_fast(y, offset.y(), ry);
   if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) return false;
-  const Eigen::Vector3f& q = maps.vertices.data()[static_cast<std::size_t>(sy) * w + sx];
+  index = static_cast<std::size_t>(sy) * w + sx;
+  const Eigen::Vector3f& q = maps.vertices.data()[index];
   if (!(q.z() > 0.0f) || !q.allFinite()) return false;
   v = q - p;
   d2 = v.squaredNorm();
   return d2 > 0.0f;
+}
+
+inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
+                          float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
+                          float& d2) {
+  std::size_t index;
+  return sample_vector(maps, x, y, offset, rx, ry, p, v, d2, index);
+}
+
+/// Alchemy's area factor of a sample at camera-frame vertex q with raycast normal n_q:
+/// 1 / max(cos theta_q, min_cos), cos theta_q = n_q . (-q / |q|). A zero or non-finite normal
+/// gives min_cos (std::max keeps its first argument against NaN).
+inline float area_factor(const Eigen::Vector3f& q, const Eigen::Vector3f& n_q, float min_cos) {
+  return 1.0f / std::max(min_cos, -n_q.dot(q) / q.norm());
 }
 
 /// A GTAO slice: the plane through the view direction and the screen direction `dir`, with the
@@ -168,14 +184,21 @@ PixelAo fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
   const float bias_m = E == AoEstimator::kPaper ? 0.0f : s.bias * p.z();
   float sum = 0.0f;
   int counted = 0;
+  const bool area = s.area_min_cos < 1.0f;
   for (int k = 0; k < count; ++k) {
     Eigen::Vector3f v;
     float d2 = 0.0f;
-    if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2)) continue;
+    std::size_t index;
+    if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2, index)) continue;
     const float nv = n.dot(v) - bias_m;
     ++counted;
     if constexpr (E == AoEstimator::kAlchemy) {
-      sum += s.radius_m * std::max(nv, 0.0f) / (d2 + r2eps);
+      if (!(nv > 0.0f)) continue;  // adds 0, no normal to read
+      float term = s.radius_m * nv / (d2 + r2eps);
+      if (area)
+        term *= area_factor(maps.vertices.data()[index], maps.normals.data()[index],
+                            s.area_min_cos);
+      sum += term;
     } else {
       const float d = std::sqrt(d2);
       const float rho = smoothstep01(d, s.t_max_m);
@@ -432,7 +455,8 @@ PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
   float sum = 0.0f;
   for (int k = 0; k < pat.samples; ++k) {
     Eigen::Vector3f q;
-    if (!fetch(pat.offsets[cls * pat.samples + k], q)) continue;
+    const Eigen::Vector2f& o = pat.offsets[cls * pat.samples + k];
+    if (!fetch(o, q)) continue;
     const Eigen::Vector3f v = q - p;
     const float dist = v.norm();
     const float rho = smoothstep01(dist, s.t_max_m);
@@ -445,10 +469,17 @@ PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
       case AoEstimator::kObscurance:
         sum += std::max(c, 0.0f) * (1.0f - rho);
         break;
-      case AoEstimator::kAlchemy:
-        sum += s.radius_m * std::max(height, 0.0f) /
-               (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
+      case AoEstimator::kAlchemy: {
+        float term = s.radius_m * std::max(height, 0.0f) /
+                     (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
+        // The sample's pixel covers surface area in proportion to 1 / cos theta_q.
+        if (s.area_min_cos < 1.0f && height > 0.0f)
+          term *= area_factor(q, maps.normals(offset_px(x, o.x(), radius_x),
+                                              offset_px(y, o.y(), radius_y)),
+                              s.area_min_cos);
+        sum += term;
         break;
+      }
       case AoEstimator::kHorizon:
       case AoEstimator::kHeightfield:
         break;
@@ -472,7 +503,8 @@ FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const A
                     static_cast<float>(config.bias),
                     static_cast<float>(config.coverage_power),
                     config.normal_radius_px,
-                    static_cast<float>(config.normal_max_distance_m * config.normal_max_distance_m)};
+                    static_cast<float>(config.normal_max_distance_m * config.normal_max_distance_m),
+                    static_cast<float>(config.area_min_cos)};
 }
 
 }  // namespace

@@ -17,7 +17,10 @@
 /// the sample's height above the tangent plane less the depth-scaled bias beta = ao.bias):
 /// - paper:      AO = mean(rho * (1 - max(c, 0)))           (Eq. 3-5 as printed, no bias)
 /// - obscurance: AO = 1 - mean(max(h / d, 0) * (1 - rho))
-/// - alchemy:    AO = max(0, 1 - mean(r_s * max(h, 0) / (d^2 + eps r_s^2)))  (McGuire 2011)
+/// - alchemy:    AO = max(0, 1 - mean(r_s * max(h, 0) / ((d^2 + eps r_s^2) max(cos theta_q, c))))
+///               (McGuire 2011; theta_q the angle between the sample's raycast normal and its ray
+///               to the camera, c = ao.area_min_cos: the surface area of the sample's pixel, so an
+///               occluder seen at a grazing angle counts as much as one seen face-on; c = 1 off)
 /// - horizon:    per slice, the highest horizon on each side (its cosine lowered toward the
 ///               tangent plane by rho, as XeGTAO's falloff), then the GTAO cosine-weighted arc
 ///               integral, summed over slices and divided by the same integral with nothing above

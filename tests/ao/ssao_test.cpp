@@ -262,6 +262,36 @@ TEST(Ssao, NormalSmoothingAveragesTheSameSurfaceOnly) {
       EXPECT_FLOAT_EQ(w(x, y), pixel_view_weight(step.vertices(x, y), facing, config)) << x;
 }
 
+TEST(Ssao, AlchemyAreaFactorDividesByTheOccludersSlant) {
+  // floor_wall_edge(): the camera at (1, 1, 0.3) sees both planes at cos theta_q <= 0.9 within
+  // 0.3 m of the edge (|eye - q| >= 1.11 m there), so for a pixel near the edge every occluding
+  // sample gets the factor 1 / max(cos, 0.9) = 1 / 0.9 exactly, and the occlusion 1 - AO is that
+  // of plain alchemy (area_min_cos = 1) divided by 0.9. (The tangent plane's own samples lie
+  // below the bias and add nothing either way.)
+  Pose T;
+  const PointMaps maps = floor_wall_edge(&T);
+  AoConfig plain = config_for(AoEstimator::kAlchemy, 1);
+  plain.area_min_cos = 1.0;
+  AoConfig slanted = plain;
+  slanted.area_min_cos = 0.9;
+  Image<float> ao_plain, ao_slanted, w;
+  compute_ssao(maps, plain, 0, ao_plain, w);
+  compute_ssao(maps, slanted, 0, ao_slanted, w);
+  int occluded = 0;
+  for (int y = 0; y < maps.vertices.height(); ++y)
+    for (int x = 0; x < maps.vertices.width(); ++x) {
+      const Eigen::Vector3d p = T * maps.vertices(x, y).cast<double>();
+      if (!(maps.vertices(x, y).z() > 0.0f) || p.z() > 0.2 || std::max(p.x(), p.y()) > 0.1)
+        continue;
+      if (!(ao_plain(x, y) < 0.99f)) continue;
+      ++occluded;
+      // Not clamped at 0 (the division would otherwise not show).
+      ASSERT_GT(ao_slanted(x, y), 0.0f) << x << " " << y;
+      EXPECT_NEAR(1.0f - ao_slanted(x, y), (1.0f - ao_plain(x, y)) / 0.9f, 2e-5f) << x << " " << y;
+    }
+  EXPECT_GT(occluded, 100);
+}
+
 TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
   const PointMaps maps = floor_wall_edge();
   for (AoEstimator e : kAllEstimators)
