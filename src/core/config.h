@@ -227,8 +227,8 @@ struct AoConfig {
   /// (the same surface, not the one behind a depth jump); 0 = the raycast's own normal. The
   /// raycast normal is the TSDF gradient at the nearest voxel, whose few-degree noise on a fused
   /// noisy surface tilts the tangent plane, so that samples a few centimetres away rise above or
-  /// sink below it by more than the bias. 2 px within 4 cm: noisy room r 0.790 -> 0.910, noisy
-  /// corner 0.871 -> 0.880; see BENCHMARKS.md.
+  /// sink below it by more than the bias. 2 px within 4 cm: noisy room r 0.790 -> 0.922, noisy
+  /// corner +0.009 to +0.011 (3 seeds); see BENCHMARKS.md.
   int normal_radius_px = 2;
   double normal_max_distance_m = 0.04;
   /// Alchemy: each sample's term is divided by max(cos theta_q, area_min_cos), theta_q the angle
@@ -236,8 +236,8 @@ struct AoConfig {
   /// for the surface area its pixel covers, which grows as 1 / cos theta_q, so an occluder seen
   /// at a grazing angle (a few pixels wide) would otherwise count far less than the same occluder
   /// seen face-on; the floor keeps single grazing pixels from dominating. 1 = off (McGuire et
-  /// al.'s plain screen-area mean). 0.5: noisy corner r +0.007 to +0.009 (3 seeds), linear-fit
-  /// slope on the reference 0.46 -> 0.75; see BENCHMARKS.md.
+  /// al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r +0.002 to
+  /// +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
   double area_min_cos = 0.5;
 
   template <class V>
