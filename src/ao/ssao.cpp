@@ -136,6 +136,7 @@ inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vect
   return d2 > 0.0f;
 }
 
+/// sample_vector() for the estimators that do not read the sample's own normal.
 inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
                           float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
                           float& d2) {
