@@ -61,6 +61,9 @@ struct FrameSetup {
   const PointMaps* maps;
   const SsaoPattern* pattern;
   float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
+  int normal_radius_px;
+  float normal_max_distance2;  ///< normal_max_distance_m squared
+  float area_min_cos;
 };
 
 /// One pixel's SSAO and the share of its samples that were counted (inside the image, on valid
@@ -87,22 +90,65 @@ float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::V
 // ---------------------------------------------------------------------------------------------
 // Fast path: estimator-specialised loops over precomputed per-class offsets.
 
+/// The SSAO normal of pixel (x, y) with vertex p and raycast normal n: the normalised sum of the
+/// finite normals of the pixels within s.normal_radius_px (window clipped at the image border,
+/// rows then columns) whose vertices lie within the maximum distance of p; n itself when the
+/// radius is 0 or the sum vanishes.
+inline Eigen::Vector3f fast_smoothed_normal(const FrameSetup& s, int x, int y,
+                                            const Eigen::Vector3f& p, const Eigen::Vector3f& n) {
+  const int r = s.normal_radius_px;
+  if (r <= 0) return n;
+  const int w = s.maps->vertices.width();
+  const int h = s.maps->vertices.height();
+  const int x0 = std::max(0, x - r), x1 = std::min(w - 1, x + r);
+  const int y0 = std::max(0, y - r), y1 = std::min(h - 1, y + r);
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+  for (int yy = y0; yy <= y1; ++yy) {
+    const Eigen::Vector3f* vrow = s.maps->vertices.data() + static_cast<std::size_t>(yy) * w;
+    const Eigen::Vector3f* nrow = s.maps->normals.data() + static_cast<std::size_t>(yy) * w;
+    for (int xx = x0; xx <= x1; ++xx) {
+      if (!(vrow[xx].z() > 0.0f) || !((vrow[xx] - p).squaredNorm() <= s.normal_max_distance2) ||
+          !nrow[xx].allFinite())
+        continue;
+      sum += nrow[xx];
+    }
+  }
+  const float length = sum.norm();
+  return length > 0.0f ? Eigen::Vector3f(sum / length) : n;
+}
+
 /// The vector v = q - p from the centre point p to the surface point q under the screen offset
 /// `offset` (unit disk, scaled by rx, ry pixels) of pixel (x, y), and d2 = |v|^2; false when the
 /// sample falls outside the image, on the pixel itself, on a pixel without a surface or on p.
 inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
                           float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
-                          float& d2) {
+                          float& d2, std::size_t& index) {
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
   const int sx = offset_px_fast(x, offset.x(), rx);
   const int sy = offset_px_fast(y, offset.y(), ry);
   if (sx < 0 || sy < 0 || sx >= w || sy >= h || (sx == x && sy == y)) return false;
-  const Eigen::Vector3f& q = maps.vertices.data()[static_cast<std::size_t>(sy) * w + sx];
+  index = static_cast<std::size_t>(sy) * w + sx;
+  const Eigen::Vector3f& q = maps.vertices.data()[index];
   if (!(q.z() > 0.0f) || !q.allFinite()) return false;
   v = q - p;
   d2 = v.squaredNorm();
   return d2 > 0.0f;
+}
+
+/// sample_vector() for the estimators that do not read the sample's own normal.
+inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
+                          float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
+                          float& d2) {
+  std::size_t index;
+  return sample_vector(maps, x, y, offset, rx, ry, p, v, d2, index);
+}
+
+/// Alchemy's area factor of a sample at camera-frame vertex q with raycast normal n_q:
+/// 1 / max(cos theta_q, min_cos), cos theta_q = n_q . (-q / |q|). A zero or non-finite normal
+/// gives min_cos (std::max keeps its first argument against NaN).
+inline float area_factor(const Eigen::Vector3f& q, const Eigen::Vector3f& n_q, float min_cos) {
+  return 1.0f / std::max(min_cos, -n_q.dot(q) / q.norm());
 }
 
 /// A GTAO slice: the plane through the view direction and the screen direction `dir`, with the
@@ -139,14 +185,21 @@ PixelAo fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
   const float bias_m = E == AoEstimator::kPaper ? 0.0f : s.bias * p.z();
   float sum = 0.0f;
   int counted = 0;
+  const bool area = s.area_min_cos < 1.0f;
   for (int k = 0; k < count; ++k) {
     Eigen::Vector3f v;
     float d2 = 0.0f;
-    if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2)) continue;
+    std::size_t index;
+    if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2, index)) continue;
     const float nv = n.dot(v) - bias_m;
     ++counted;
     if constexpr (E == AoEstimator::kAlchemy) {
-      sum += s.radius_m * std::max(nv, 0.0f) / (d2 + r2eps);
+      if (!(nv > 0.0f)) continue;  // adds 0, no normal to read
+      float term = s.radius_m * nv / (d2 + r2eps);
+      if (area)
+        term *= area_factor(maps.vertices.data()[index], maps.normals.data()[index],
+                            s.area_min_cos);
+      sum += term;
     } else {
       const float d = std::sqrt(d2);
       const float rho = smoothstep01(d, s.t_max_m);
@@ -294,11 +347,30 @@ PixelFn fast_kernel(AoEstimator e) {
 // ---------------------------------------------------------------------------------------------
 // Reference: one generic per-pixel function written from the formulas.
 
+/// The SSAO normal of pixel (x, y), written from its definition (see fast_smoothed_normal()).
+Eigen::Vector3f reference_smoothed_normal(const FrameSetup& s, int x, int y) {
+  const PointMaps& maps = *s.maps;
+  const Eigen::Vector3f p = maps.vertices(x, y);
+  const int r = s.normal_radius_px;
+  if (r <= 0) return maps.normals(x, y);
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+  for (int yy = y - r; yy <= y + r; ++yy)
+    for (int xx = x - r; xx <= x + r; ++xx) {
+      if (!maps.vertices.contains(xx, yy)) continue;
+      const Eigen::Vector3f q = maps.vertices(xx, yy);
+      const Eigen::Vector3f nq = maps.normals(xx, yy);
+      if (q.z() > 0.0f && (q - p).squaredNorm() <= s.normal_max_distance2 && nq.allFinite())
+        sum += nq;
+    }
+  if (!(sum.norm() > 0.0f)) return maps.normals(x, y);
+  return sum / sum.norm();
+}
+
 PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
   const PointMaps& maps = *s.maps;
   const SsaoPattern& pat = *s.pattern;
   const Eigen::Vector3f p = maps.vertices(x, y);
-  const Eigen::Vector3f n = maps.normals(x, y);
+  const Eigen::Vector3f n = reference_smoothed_normal(s, x, y);
   const float radius_x = std::min(s.fx * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const float radius_y = std::min(s.fy * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const int cls = pattern_class(x, y);
@@ -384,7 +456,8 @@ PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
   float sum = 0.0f;
   for (int k = 0; k < pat.samples; ++k) {
     Eigen::Vector3f q;
-    if (!fetch(pat.offsets[cls * pat.samples + k], q)) continue;
+    const Eigen::Vector2f& o = pat.offsets[cls * pat.samples + k];
+    if (!fetch(o, q)) continue;
     const Eigen::Vector3f v = q - p;
     const float dist = v.norm();
     const float rho = smoothstep01(dist, s.t_max_m);
@@ -397,10 +470,17 @@ PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
       case AoEstimator::kObscurance:
         sum += std::max(c, 0.0f) * (1.0f - rho);
         break;
-      case AoEstimator::kAlchemy:
-        sum += s.radius_m * std::max(height, 0.0f) /
-               (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
+      case AoEstimator::kAlchemy: {
+        float term = s.radius_m * std::max(height, 0.0f) /
+                     (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
+        // The sample's pixel covers surface area in proportion to 1 / cos theta_q.
+        if (s.area_min_cos < 1.0f && height > 0.0f)
+          term *= area_factor(q, maps.normals(offset_px(x, o.x(), radius_x),
+                                              offset_px(y, o.y(), radius_y)),
+                              s.area_min_cos);
+        sum += term;
         break;
+      }
       case AoEstimator::kHorizon:
       case AoEstimator::kHeightfield:
         break;
@@ -422,7 +502,10 @@ FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const A
                     static_cast<float>(config.d_min_m),
                     static_cast<float>(config.d_max_m),
                     static_cast<float>(config.bias),
-                    static_cast<float>(config.coverage_power)};
+                    static_cast<float>(config.coverage_power),
+                    config.normal_radius_px,
+                    static_cast<float>(config.normal_max_distance_m * config.normal_max_distance_m),
+                    static_cast<float>(config.area_min_cos)};
 }
 
 }  // namespace
@@ -518,9 +601,10 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
           const Eigen::Vector3f& p = verts[base + x];
           const Eigen::Vector3f& n = norms[base + x];
           if (!ssao_pixel_valid(p, n)) continue;
-          const PixelAo r = kernel(setup, x, y, p, n);
+          const Eigen::Vector3f ns = fast_smoothed_normal(setup, x, y, p, n);
+          const PixelAo r = kernel(setup, x, y, p, ns);
           ao_row[x] = r.ao;
-          w_row[x] = pixel_weight(setup, p, n, r.coverage);
+          w_row[x] = pixel_weight(setup, p, ns, r.coverage);
         }
       }
     });
@@ -542,7 +626,8 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
         }
         if (ex < 0) continue;
         const std::size_t eidx = static_cast<std::size_t>(ey) * w + ex;
-        const PixelAo r = kernel(setup, ex, ey, verts[eidx], norms[eidx]);
+        const Eigen::Vector3f ns = fast_smoothed_normal(setup, ex, ey, verts[eidx], norms[eidx]);
+        const PixelAo r = kernel(setup, ex, ey, verts[eidx], ns);
         const float value = r.ao;
         for (int dy = 0; dy < 2; ++dy)
           for (int dx = 0; dx < 2; ++dx) {
@@ -551,7 +636,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
             const std::size_t idx = static_cast<std::size_t>(y) * w + x;
             if (ssao_pixel_valid(verts[idx], norms[idx])) ao.data()[idx] = value;
           }
-        weight.data()[eidx] = pixel_weight(setup, verts[eidx], norms[eidx], r.coverage);
+        weight.data()[eidx] = pixel_weight(setup, verts[eidx], ns, r.coverage);
       }
     }
   });
@@ -586,8 +671,8 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
       const PixelAo r = reference_pixel_ao(setup, ex, ey);
       ao(x, y) = r.ao;
       if (ex == x && ey == y) {
-        float w_px =
-            view_weight(maps.vertices(x, y), maps.normals(x, y), setup.d_min_m, setup.d_max_m);
+        float w_px = view_weight(maps.vertices(x, y), reference_smoothed_normal(setup, x, y),
+                                 setup.d_min_m, setup.d_max_m);
         if (setup.coverage_power > 0.0f)
           w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);
         weight(x, y) = w_px;

@@ -222,6 +222,23 @@ struct AoConfig {
   /// with the default grid, a third of r_s): noisy corner r 0.865 -> 0.890 (3: 0.886), the fused
   /// surface's small bumps average out; see BENCHMARKS.md.
   int mesh_cell_factor = 4;
+  /// SSAO takes at each evaluated pixel the normalised sum of the raycast normals within
+  /// normal_radius_px pixels whose vertices lie within normal_max_distance_m of the pixel's own
+  /// (the same surface, not the one behind a depth jump); 0 = the raycast's own normal. The
+  /// raycast normal is the TSDF gradient at the nearest voxel, whose few-degree noise on a fused
+  /// noisy surface tilts the tangent plane, so that samples a few centimetres away rise above or
+  /// sink below it by more than the bias. 2 px within 4 cm: noisy room r 0.790 -> 0.922, noisy
+  /// corner +0.009 to +0.011 (3 seeds); see BENCHMARKS.md.
+  int normal_radius_px = 2;
+  double normal_max_distance_m = 0.04;
+  /// Alchemy: each sample's term is divided by max(cos theta_q, area_min_cos), theta_q the angle
+  /// between the sample's raycast normal and its ray to the camera. A screen-space sample stands
+  /// for the surface area its pixel covers, which grows as 1 / cos theta_q, so an occluder seen
+  /// at a grazing angle (a few pixels wide) would otherwise count far less than the same occluder
+  /// seen face-on; the floor keeps single grazing pixels from dominating. 1 = off (McGuire et
+  /// al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r +0.002 to
+  /// +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
+  double area_min_cos = 0.5;
 
   template <class V>
   void visit(V& v) {
@@ -258,6 +275,15 @@ struct AoConfig {
     v.integer("mesh_cell_factor", mesh_cell_factor,
               "mesh AO reads the grid through cells of factor^3 grid cells (1 = the grid's cells)",
               1, 64);
+    v.integer("normal_radius_px", normal_radius_px,
+              "SSAO normal: sum of the raycast normals within this many pixels (0 = the pixel's own)",
+              0, 16);
+    v.number("normal_max_distance_m", normal_max_distance_m,
+             "SSAO normal: only neighbours whose vertices lie within this distance (m)", 0.0, 10.0);
+    v.number("area_min_cos", area_min_cos,
+             "SSAO alchemy: a sample's term / max(cos of its surface to its camera ray, this); "
+             "1 = off",
+             0.01, 1.0);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
   }

@@ -45,6 +45,11 @@ PointMaps floor_wall_edge(Pose* T_out = nullptr) {
                        {Plane{{1.0, 0.0, 0.0}, 0.0}, Plane{{0.0, 1.0, 0.0}, 0.0}});
 }
 
+/// The weight compute_ssao() gives a pixel at p with SSAO normal n and full coverage.
+float pixel_view_weight(const Eigen::Vector3f& p, const Eigen::Vector3f& n, const AoConfig& c) {
+  return view_weight(p, n, static_cast<float>(c.d_min_m), static_cast<float>(c.d_max_m));
+}
+
 TEST(ViewWeight, MatchesEquations10And11) {
   const Eigen::Vector3f facing(0.0f, 0.0f, -1.0f);
   // |p| = 2 m: w_d = 1 - (2 - 0.4) / 3.
@@ -208,6 +213,83 @@ TEST(Ssao, BiasIgnoresBumpsLowerThanBiasTimesDepth) {
     compute_ssao(maps, config, 0, ao, w);
     EXPECT_LT(ao(160 + 2, 120 + 2), 0.99f) << static_cast<int>(e);  // a low square
   }
+}
+
+TEST(Ssao, NormalSmoothingAveragesTheSameSurfaceOnly) {
+  // The open wall with its normals tilted about the camera's y axis by -2a, -a, 0, a, 2a in
+  // columns x mod 5: any 5 neighbouring columns hold each tilt once, so the smoothed normal at
+  // radius 2 is the wall's own, and alchemy reads the wall open; with the pixels' own normals the
+  // tilted tangent planes put the wall's samples above them by more than the bias.
+  PointMaps maps = open_wall();
+  const float a = 0.1f;  // 5.7 degrees
+  const Eigen::Vector3f facing = maps.normals(160, 120);
+  ASSERT_NEAR(facing.z(), -1.0f, 1e-6f);
+  for (int y = 0; y < maps.normals.height(); ++y)
+    for (int x = 0; x < maps.normals.width(); ++x) {
+      const float t = a * static_cast<float>(x % 5 - 2);
+      maps.normals(x, y) = Eigen::Vector3f(std::sin(t), 0.0f, -std::cos(t));
+    }
+  AoConfig config = config_for(AoEstimator::kAlchemy, 1);
+  ASSERT_EQ(config.normal_radius_px, 2);
+  config.coverage_power = 0.0;  // the weight is w_d w_n alone
+  Image<float> ao, w;
+  compute_ssao(maps, config, 0, ao, w);
+  for (int y = 40; y < 200; y += 7)
+    for (int x = 60; x < 260; x += 3) {
+      ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
+      // The w_n weight uses the smoothed normal too: that of the untilted wall.
+      EXPECT_NEAR(w(x, y),
+                  pixel_view_weight(maps.vertices(x, y), facing, config), 1e-5f) << x << " " << y;
+    }
+  config.normal_radius_px = 0;
+  compute_ssao(maps, config, 0, ao, w);
+  EXPECT_LT(ao(160 + 4, 120), 0.99f);  // x mod 5 = 4: tilted by 2a
+  EXPECT_LT(ao(160 + 5, 120), 0.99f);  // x mod 5 = 0: tilted by -2a
+
+  // A depth step: right of column 160 the surface lies 10 cm behind, with sideways normals; the
+  // near surface's pixels at the step keep the wall's normal (same weight as without the step).
+  PointMaps step = open_wall();
+  for (int y = 0; y < step.vertices.height(); ++y)
+    for (int x = 161; x < step.vertices.width(); ++x) {
+      Eigen::Vector3f& v = step.vertices(x, y);
+      v *= (v.z() + 0.1f) / v.z();
+      step.normals(x, y) = Eigen::Vector3f(1.0f, 0.0f, 0.0f);
+    }
+  config.normal_radius_px = 2;
+  compute_ssao(step, config, 0, ao, w);
+  for (int y = 40; y < 200; y += 7)
+    for (int x = 158; x <= 160; ++x)
+      EXPECT_FLOAT_EQ(w(x, y), pixel_view_weight(step.vertices(x, y), facing, config)) << x;
+}
+
+TEST(Ssao, AlchemyAreaFactorDividesByTheOccludersSlant) {
+  // floor_wall_edge(): the camera at (1, 1, 0.3) sees both planes at cos theta_q <= 0.9 within
+  // 0.3 m of the edge (|eye - q| >= 1.11 m there), so for a pixel near the edge every occluding
+  // sample gets the factor 1 / max(cos, 0.9) = 1 / 0.9 exactly, and the occlusion 1 - AO is that
+  // of plain alchemy (area_min_cos = 1) divided by 0.9. (The tangent plane's own samples lie
+  // below the bias and add nothing either way.)
+  Pose T;
+  const PointMaps maps = floor_wall_edge(&T);
+  AoConfig plain = config_for(AoEstimator::kAlchemy, 1);
+  plain.area_min_cos = 1.0;
+  AoConfig slanted = plain;
+  slanted.area_min_cos = 0.9;
+  Image<float> ao_plain, ao_slanted, w;
+  compute_ssao(maps, plain, 0, ao_plain, w);
+  compute_ssao(maps, slanted, 0, ao_slanted, w);
+  int occluded = 0;
+  for (int y = 0; y < maps.vertices.height(); ++y)
+    for (int x = 0; x < maps.vertices.width(); ++x) {
+      const Eigen::Vector3d p = T * maps.vertices(x, y).cast<double>();
+      if (!(maps.vertices(x, y).z() > 0.0f) || p.z() > 0.2 || std::max(p.x(), p.y()) > 0.1)
+        continue;
+      if (!(ao_plain(x, y) < 0.99f)) continue;
+      ++occluded;
+      // Not clamped at 0 (the division would otherwise not show).
+      ASSERT_GT(ao_slanted(x, y), 0.0f) << x << " " << y;
+      EXPECT_NEAR(1.0f - ao_slanted(x, y), (1.0f - ao_plain(x, y)) / 0.9f, 2e-5f) << x << " " << y;
+    }
+  EXPECT_GT(occluded, 100);
 }
 
 TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
