@@ -10,6 +10,8 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 
+#include "fusion/normal_smoothing.h"
+
 namespace aoscan {
 namespace {
 
@@ -90,31 +92,12 @@ float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::V
 // ---------------------------------------------------------------------------------------------
 // Fast path: estimator-specialised loops over precomputed per-class offsets.
 
-/// The SSAO normal of pixel (x, y) with vertex p and raycast normal n: the normalised sum of the
-/// finite normals of the pixels within s.normal_radius_px (window clipped at the image border,
-/// rows then columns) whose vertices lie within the maximum distance of p; n itself when the
-/// radius is 0 or the sum vanishes.
-inline Eigen::Vector3f fast_smoothed_normal(const FrameSetup& s, int x, int y,
-                                            const Eigen::Vector3f& p, const Eigen::Vector3f& n) {
-  const int r = s.normal_radius_px;
-  if (r <= 0) return n;
-  const int w = s.maps->vertices.width();
-  const int h = s.maps->vertices.height();
-  const int x0 = std::max(0, x - r), x1 = std::min(w - 1, x + r);
-  const int y0 = std::max(0, y - r), y1 = std::min(h - 1, y + r);
-  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-  for (int yy = y0; yy <= y1; ++yy) {
-    const Eigen::Vector3f* vrow = s.maps->vertices.data() + static_cast<std::size_t>(yy) * w;
-    const Eigen::Vector3f* nrow = s.maps->normals.data() + static_cast<std::size_t>(yy) * w;
-    for (int xx = x0; xx <= x1; ++xx) {
-      if (!(vrow[xx].z() > 0.0f) || !((vrow[xx] - p).squaredNorm() <= s.normal_max_distance2) ||
-          !nrow[xx].allFinite())
-        continue;
-      sum += nrow[xx];
-    }
-  }
-  const float length = sum.norm();
-  return length > 0.0f ? Eigen::Vector3f(sum / length) : n;
+/// The SSAO normal of pixel (x, y) with raycast normal n: smoothed_normal() over
+/// s.normal_radius_px pixels, or n itself when the radius is 0.
+inline Eigen::Vector3f ssao_normal(const FrameSetup& s, int x, int y, const Eigen::Vector3f& n) {
+  return s.normal_radius_px > 0
+             ? smoothed_normal(*s.maps, x, y, s.normal_radius_px, s.normal_max_distance2)
+             : n;
 }
 
 /// The vector v = q - p from the centre point p to the surface point q under the screen offset
@@ -347,30 +330,11 @@ PixelFn fast_kernel(AoEstimator e) {
 // ---------------------------------------------------------------------------------------------
 // Reference: one generic per-pixel function written from the formulas.
 
-/// The SSAO normal of pixel (x, y), written from its definition (see fast_smoothed_normal()).
-Eigen::Vector3f reference_smoothed_normal(const FrameSetup& s, int x, int y) {
-  const PointMaps& maps = *s.maps;
-  const Eigen::Vector3f p = maps.vertices(x, y);
-  const int r = s.normal_radius_px;
-  if (r <= 0) return maps.normals(x, y);
-  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-  for (int yy = y - r; yy <= y + r; ++yy)
-    for (int xx = x - r; xx <= x + r; ++xx) {
-      if (!maps.vertices.contains(xx, yy)) continue;
-      const Eigen::Vector3f q = maps.vertices(xx, yy);
-      const Eigen::Vector3f nq = maps.normals(xx, yy);
-      if (q.z() > 0.0f && (q - p).squaredNorm() <= s.normal_max_distance2 && nq.allFinite())
-        sum += nq;
-    }
-  if (!(sum.norm() > 0.0f)) return maps.normals(x, y);
-  return sum / sum.norm();
-}
-
 PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
   const PointMaps& maps = *s.maps;
   const SsaoPattern& pat = *s.pattern;
   const Eigen::Vector3f p = maps.vertices(x, y);
-  const Eigen::Vector3f n = reference_smoothed_normal(s, x, y);
+  const Eigen::Vector3f n = ssao_normal(s, x, y, maps.normals(x, y));
   const float radius_x = std::min(s.fx * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const float radius_y = std::min(s.fy * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const int cls = pattern_class(x, y);
@@ -601,7 +565,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
           const Eigen::Vector3f& p = verts[base + x];
           const Eigen::Vector3f& n = norms[base + x];
           if (!ssao_pixel_valid(p, n)) continue;
-          const Eigen::Vector3f ns = fast_smoothed_normal(setup, x, y, p, n);
+          const Eigen::Vector3f ns = ssao_normal(setup, x, y, n);
           const PixelAo r = kernel(setup, x, y, p, ns);
           ao_row[x] = r.ao;
           w_row[x] = pixel_weight(setup, p, ns, r.coverage);
@@ -626,7 +590,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
         }
         if (ex < 0) continue;
         const std::size_t eidx = static_cast<std::size_t>(ey) * w + ex;
-        const Eigen::Vector3f ns = fast_smoothed_normal(setup, ex, ey, verts[eidx], norms[eidx]);
+        const Eigen::Vector3f ns = ssao_normal(setup, ex, ey, norms[eidx]);
         const PixelAo r = kernel(setup, ex, ey, verts[eidx], ns);
         const float value = r.ao;
         for (int dy = 0; dy < 2; ++dy)
@@ -671,7 +635,7 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
       const PixelAo r = reference_pixel_ao(setup, ex, ey);
       ao(x, y) = r.ao;
       if (ex == x && ey == y) {
-        float w_px = view_weight(maps.vertices(x, y), reference_smoothed_normal(setup, x, y),
+        float w_px = view_weight(maps.vertices(x, y), ssao_normal(setup, x, y, maps.normals(x, y)),
                                  setup.d_min_m, setup.d_max_m);
         if (setup.coverage_power > 0.0f)
           w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);

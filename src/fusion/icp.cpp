@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include "core/status.h"
+#include "fusion/normal_smoothing.h"
 #include "fusion/simd.h"
 
 namespace aoscan {
@@ -488,33 +489,6 @@ IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
 }
 
 namespace {
-
-/// The normalised sum of the normals around pixel (x, y) that smooth_model_normals() writes, for
-/// one pixel (the window clipped at the border): the reference arithmetic, which the AVX2 path
-/// repeats lane by lane (differences summed x, y, z left to right, no fused multiply-adds).
-AOSCAN_NO_CONTRACT Eigen::Vector3f smoothed_normal(const PointMaps& in, int x, int y,
-                                                   int radius_px, float max_distance_sq) {
-  const int w = in.vertices.width();
-  const int h = in.vertices.height();
-  const Eigen::Vector3f& v = in.vertices(x, y);
-  const Eigen::Vector3f& n = in.normals(x, y);
-  if (!(v.z() > 0.0f) || (n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f))
-    return Eigen::Vector3f::Zero();
-  float sx = 0.0f, sy = 0.0f, sz = 0.0f;
-  for (int yy = std::max(0, y - radius_px); yy <= std::min(h - 1, y + radius_px); ++yy) {
-    for (int xx = std::max(0, x - radius_px); xx <= std::min(w - 1, x + radius_px); ++xx) {
-      const Eigen::Vector3f& q = in.vertices(xx, yy);
-      const float dx = q.x() - v.x(), dy = q.y() - v.y(), dz = q.z() - v.z();
-      if (!(q.z() > 0.0f) || !(dx * dx + dy * dy + dz * dz <= max_distance_sq)) continue;
-      const Eigen::Vector3f& m = in.normals(xx, yy);  // a zero normal adds nothing
-      sx += m.x();
-      sy += m.y();
-      sz += m.z();
-    }
-  }
-  const float length = std::sqrt(sx * sx + sy * sy + sz * sz);
-  return length > 0.0f ? Eigen::Vector3f(sx / length, sy / length, sz / length) : n;
-}
 
 #if defined(AOSCAN_ICP_AVX2)
 /// smoothed_normal() for the eight pixels x0..x0 + 7 of row y, whose windows lie inside the
