@@ -132,6 +132,18 @@ struct TrackingConfig {
   /// weakly constrained directions of a room (walls and floor). 0 uses the raw normals.
   int model_normal_radius_px = 2;
   double model_normal_max_distance_m = 0.05;  ///< neighbours farther away (m) are not averaged
+  /// Degeneracy-aware update (Zhang, Kaess & Singh 2016): a direction of the ICP system whose
+  /// eigenvalue is below this fraction of the largest is hardly measured (a wall and the floor
+  /// alone leave the translation along their edge to depth noise, at about 0.02 % in the room
+  /// scenes, against 1 % for the weakest direction of a well-constrained view). Such a direction
+  /// gets the information missing up to the floor from the motion prior (velocity_smoothing):
+  /// far below it the estimate follows the prior, near it mostly the data. 0 keeps only the
+  /// numerically unconstrained directions (below 1e-6) at the prior.
+  double weak_direction_ratio = 0.0005;
+  /// The motion prior of the weak directions is the previous pose moved on by the camera's
+  /// frame-to-frame motion, smoothed exponentially with this weight of the newest motion (1: the
+  /// last motion alone). 0: no velocity, the prior is the previous pose.
+  double velocity_smoothing = 0.3;
 
   template <class V>
   void visit(V& v) {
@@ -156,6 +168,14 @@ struct TrackingConfig {
              "ICP: beyond this depth (m) residuals count as noisier by (z / this)^2 (Huber "
              "threshold times that, weight over its square); 0 weighs all depths alike",
              0.0, 100.0);
+    v.number("weak_direction_ratio", weak_direction_ratio,
+             "ICP directions with an eigenvalue below this fraction of the largest take the "
+             "missing information from the motion prior; 0: only unconstrained ones",
+             0.0, 1.0);
+    v.number("velocity_smoothing", velocity_smoothing,
+             "motion prior of the weak ICP directions: weight of the newest frame-to-frame "
+             "motion in the smoothed camera velocity; 0: the previous pose",
+             0.0, 1.0);
     v.number("max_normal_angle_deg", max_normal_angle_deg,
              "ICP correspondence normal-angle rejection (degrees)", 0.0, 180.0);
     v.number("huber_delta_m", huber_delta_m, "ICP Huber threshold of the residual (m)", 1e-5, 1.0);

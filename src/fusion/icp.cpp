@@ -1,6 +1,6 @@
 /// @file icp.cpp
 /// @brief Projective point-to-plane ICP: per-pixel association and Huber-weighted normal
-/// equations reduced deterministically, pseudo-inverse Gauss-Newton steps, tracking status.
+/// equations reduced deterministically, degeneracy-aware Gauss-Newton steps, tracking status.
 #include "fusion/icp.h"
 
 #include <algorithm>
@@ -30,7 +30,8 @@ static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be th
 constexpr int kRowsPerGroup = 4;
 /// Fewer inliers than this at full resolution: lost, whatever the ratio.
 constexpr int kMinInliers = 64;
-/// Eigenvalues of the system below this fraction of the largest are treated as unconstrained.
+/// Eigenvalues of the system below this fraction of the largest are unconstrained (rounding):
+/// such a direction takes the prior's increment alone.
 constexpr double kDegenerateEigenRatio = 1e-6;
 /// Increments below these (rad, m) end a level early (0.006 degrees, 0.05 mm).
 constexpr double kConvergedRotation = 1e-4;
@@ -373,32 +374,45 @@ Pose increment(const Eigen::Matrix<double, 6, 1>& xi) {
   return Pose(R, xi.tail<3>());
 }
 
-/// Solves A xi = -b through the eigen-decomposition, leaving unconstrained directions at zero.
-Eigen::Matrix<double, 6, 1> solve(const IcpSystem& s, bool& degenerate) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(s.A);
-  const Eigen::Matrix<double, 6, 1> lambda = eig.eigenvalues();
-  const double largest = lambda.maxCoeff();
-  Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
-  degenerate = false;
-  if (!(largest > 0.0)) {
-    degenerate = true;
-    return xi;
-  }
-  const Eigen::Matrix<double, 6, 1> rhs = eig.eigenvectors().transpose() * (-s.b);
-  Eigen::Matrix<double, 6, 1> coeff;
-  for (int i = 0; i < 6; ++i) {
-    if (lambda[i] > kDegenerateEigenRatio * largest) {
-      coeff[i] = rhs[i] / lambda[i];
-    } else {
-      coeff[i] = 0.0;
-      degenerate = true;
-    }
-  }
-  xi = eig.eigenvectors() * coeff;
+/// The increment xi with increment(xi) = D: D's rotation vector and D's translation.
+Eigen::Matrix<double, 6, 1> increment_of(const Pose& D) {
+  const Eigen::AngleAxisd aa(D.rotation());
+  Eigen::Matrix<double, 6, 1> xi;
+  xi.head<3>() = aa.angle() * aa.axis();
+  xi.tail<3>() = D.translation();
   return xi;
 }
 
 }  // namespace
+
+Eigen::Matrix<double, 6, 1> solve_icp_system(const Eigen::Matrix<double, 6, 6>& A,
+                                             const Eigen::Matrix<double, 6, 1>& b,
+                                             const Eigen::Matrix<double, 6, 1>& prior,
+                                             double weak_ratio, bool& degenerate) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(A);
+  const Eigen::Matrix<double, 6, 1> lambda = eig.eigenvalues();
+  const double largest = lambda.maxCoeff();
+  degenerate = true;
+  if (!(largest > 0.0)) return prior;
+  const Eigen::Matrix<double, 6, 6>& V = eig.eigenvectors();
+  const Eigen::Matrix<double, 6, 1> rhs = V.transpose() * (-b);
+  const Eigen::Matrix<double, 6, 1> p = V.transpose() * prior;
+  const double unconstrained = kDegenerateEigenRatio * largest;
+  const double floor = std::max(weak_ratio * largest, unconstrained);
+  Eigen::Matrix<double, 6, 1> coeff;
+  degenerate = false;
+  for (int i = 0; i < 6; ++i) {
+    if (lambda[i] >= floor) {
+      coeff[i] = rhs[i] / lambda[i];
+      continue;
+    }
+    degenerate = true;
+    // Information lambda from the data and floor - lambda from the prior: the minimiser of
+    // lambda (c - rhs / lambda)^2 + (floor - lambda) (c - p)^2.
+    coeff[i] = lambda[i] > unconstrained ? (rhs[i] + (floor - lambda[i]) * p[i]) / floor : p[i];
+  }
+  return V * coeff;
+}
 
 const char* to_string(TrackingStatus status) {
   switch (status) {
@@ -618,8 +632,8 @@ void downsample_model(const PointMaps& in, PointMaps& out) {
 }
 
 IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
-              const Pose& T_world_camera_init, const TrackingConfig& config,
-              IcpWorkspace& workspace) {
+              const Pose& T_world_camera_init, const Pose& T_world_camera_prior,
+              const TrackingConfig& config, IcpWorkspace& workspace) {
   IcpResult result;
   result.T_world_camera = T_world_camera_init;
   if (!T_world_camera_init.finite() || !model.T_world_camera.finite()) return result;
@@ -647,6 +661,9 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
                                           config.iterations_level2};
 
   Pose T_model_camera = model.T_world_camera.inverse() * T_world_camera_init;
+  const Pose T_model_prior = T_world_camera_prior.finite()
+                                 ? model.T_world_camera.inverse() * T_world_camera_prior
+                                 : T_model_camera;
   IcpSystem last;
   bool evaluated_level0 = false;
   for (int level = kPyramidLevels - 1; level >= 0; --level) {
@@ -659,7 +676,9 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
       }
       if (s.inliers < 6) break;
       bool degenerate = false;
-      const Eigen::Matrix<double, 6, 1> xi = solve(s, degenerate);
+      const Eigen::Matrix<double, 6, 1> xi =
+          solve_icp_system(s.A, s.b, increment_of(T_model_prior * T_model_camera.inverse()),
+                           config.weak_direction_ratio, degenerate);
       if (level == 0) result.degenerate = degenerate;
       if (!xi.allFinite()) break;
       T_model_camera = increment(xi) * T_model_camera;
@@ -672,7 +691,8 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
     last =
         icp_system(frame.maps[0], *model_maps[0], T_model_camera, config, config.level0_pixel_step);
     bool degenerate = false;
-    solve(last, degenerate);
+    solve_icp_system(last.A, last.b, Eigen::Matrix<double, 6, 1>::Zero(),
+                     config.weak_direction_ratio, degenerate);
     result.degenerate = degenerate;
   }
 
@@ -699,9 +719,15 @@ IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
 }
 
 IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
+              const Pose& T_world_camera_init, const TrackingConfig& config,
+              IcpWorkspace& workspace) {
+  return icp(frame, model, T_world_camera_init, T_world_camera_init, config, workspace);
+}
+
+IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
               const Pose& T_world_camera_init, const TrackingConfig& config) {
   IcpWorkspace workspace;
-  return icp(frame, model, T_world_camera_init, config, workspace);
+  return icp(frame, model, T_world_camera_init, T_world_camera_init, config, workspace);
 }
 
 }  // namespace aoscan

@@ -34,7 +34,7 @@ struct IcpResult {
   double inlier_ratio = 0.0;    ///< inliers / valid_pixels
   double rms_residual_m = 0.0;  ///< point-to-plane RMS of the inliers (m)
   int iterations = 0;           ///< Gauss-Newton steps over all levels
-  bool degenerate = false;      ///< the last system had an unconstrained direction
+  bool degenerate = false;      ///< the last system had a direction below the weak-direction floor
   double translation_m = 0.0;   ///< |motion| from the initial pose (m)
   double rotation_deg = 0.0;    ///< rotation angle from the initial pose (degrees)
 };
@@ -72,6 +72,20 @@ IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
                                const Pose& T_model_camera, const TrackingConfig& config,
                                int pixel_step = 1);
 
+/// One Gauss-Newton step: the increment xi solving A xi = -b in the eigenbasis of A, where the
+/// data constrain it, and the increment `prior` (the one that would reach the motion prior) where
+/// they hardly do. A direction whose eigenvalue lambda is below floor = weak_ratio * largest
+/// (at least 1e-6 * largest) gets the information floor - lambda from the prior: its component
+/// is (rhs + (floor - lambda) p) / floor, with rhs and p the components of -b and prior; below
+/// 1e-6 * largest it is the prior's alone. Point-to-plane data along a weak direction are mostly
+/// depth noise (and, frame to model, the model's own earlier errors), so solving for it exactly
+/// lets the pose wander by centimetres there. `degenerate` is set when any direction is below
+/// the floor (or A is not positive).
+Eigen::Matrix<double, 6, 1> solve_icp_system(const Eigen::Matrix<double, 6, 6>& A,
+                                             const Eigen::Matrix<double, 6, 1>& b,
+                                             const Eigen::Matrix<double, 6, 1>& prior,
+                                             double weak_ratio, bool& degenerate);
+
 /// Reusable buffers of icp(): the model maps at every pyramid level (level 0: the raycast with
 /// smoothed normals, when config.model_normal_radius_px > 0).
 struct IcpWorkspace {
@@ -108,7 +122,14 @@ void downsample_model(const PointMaps& in, PointMaps& out);
 /// raycast serves levels 0 and 1 as it is). The result's status is lost
 /// when too few pixels match, the estimate is not finite, or it moved more than
 /// max_translation_m / max_rotation_deg from the initial pose; poor when the inlier ratio or the
-/// residual is bad or the system is degenerate. Never returns a non-finite pose.
+/// residual is bad or the system is degenerate. Never returns a non-finite pose. The directions
+/// the data hardly constrain (TrackingConfig::weak_direction_ratio, solve_icp_system()) are drawn
+/// to T_world_camera_prior, e.g. the previous pose moved on by the camera's velocity; the
+/// well-constrained ones are not.
+IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
+              const Pose& T_world_camera_init, const Pose& T_world_camera_prior,
+              const TrackingConfig& config, IcpWorkspace& workspace);
+/// icp() with the initial pose as the prior.
 IcpResult icp(const DepthPyramid& frame, const RaycastResult& model,
               const Pose& T_world_camera_init, const TrackingConfig& config,
               IcpWorkspace& workspace);

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include <Eigen/Geometry>
+
 #include "fusion/marching_cubes.h"
 
 namespace aoscan {
@@ -12,6 +14,16 @@ namespace {
 /// The model raycast is never coarser than this (pixels across): SSAO and tracking of small
 /// frames (e.g. 320x240 recordings) keep their full resolution.
 constexpr int kMinRaycastWidth = 320;
+
+/// (1 - w) a + w b for two small motions, rotation vectors and translations blended apart.
+Pose blend(const Pose& a, const Pose& b, double w) {
+  const Eigen::AngleAxisd ra(a.rotation()), rb(b.rotation());
+  const Eigen::Vector3d omega = (1.0 - w) * ra.angle() * ra.axis() + w * rb.angle() * rb.axis();
+  const double angle = omega.norm();
+  return Pose(angle > 0.0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix()
+                          : Eigen::Matrix3d::Identity(),
+              (1.0 - w) * a.translation() + w * b.translation());
+}
 
 }  // namespace
 
@@ -26,13 +38,21 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.T_world_camera = T_world_last_;
   } else {
     const RaycastResult& reference = first_frame_reference_ ? *first_frame_reference_ : *model_;
-    step.icp = icp(frame.pyramid, reference, T_world_last_, config_.tracking, icp_workspace_);
+    // The motion prior of ICP's weakly constrained directions: the previous pose moved on by
+    // the smoothed camera velocity (constant velocity in the camera frame).
+    const Pose prior = has_velocity_ && config_.tracking.velocity_smoothing > 0.0
+                           ? T_world_last_ * velocity_
+                           : T_world_last_;
+    step.icp =
+        icp(frame.pyramid, reference, T_world_last_, prior, config_.tracking, icp_workspace_);
     step.status = step.icp.status;
     step.T_world_camera =
         step.icp.status == TrackingStatus::kLost ? T_world_last_ : step.icp.T_world_camera;
   }
   if (step.status == TrackingStatus::kLost) {
     ++frames_lost_;
+    has_velocity_ = false;
+    last_is_previous_ = false;
     return step;
   }
   if (integrate || step.new_model) {
@@ -47,6 +67,15 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     ++frames_lost_;
     return step;
   }
+  if (!step.new_model && last_is_previous_) {
+    const Pose motion = T_world_last_.inverse() * step.T_world_camera;
+    velocity_ =
+        has_velocity_ ? blend(velocity_, motion, config_.tracking.velocity_smoothing) : motion;
+    has_velocity_ = true;
+  } else {
+    has_velocity_ = false;
+  }
+  last_is_previous_ = true;
   T_world_last_ = step.T_world_camera;
   // The model is raycast at a pyramid level of the frame; a frame just fused at this pose is the
   // depth hint (its pyramid depth at that level has exactly the raycast's pixel grid).
@@ -81,6 +110,9 @@ void Reconstruction::reset() {
   model_.reset();
   first_frame_reference_.reset();
   T_world_last_ = Pose();
+  velocity_ = Pose();
+  has_velocity_ = false;
+  last_is_previous_ = false;
 }
 
 TriangleMesh Reconstruction::extract_mesh() const {

@@ -65,6 +65,11 @@ class Reconstruction {
   /// that frame alone (null otherwise).
   std::shared_ptr<const RaycastResult> first_frame_reference_;
   Pose T_world_last_;
+  /// Smoothed frame-to-frame motion T_last^-1 T_new (camera frame; TrackingConfig::
+  /// velocity_smoothing), valid while has_velocity_: the motion prior of the next frame.
+  Pose velocity_;
+  bool has_velocity_ = false;
+  bool last_is_previous_ = false;  ///< T_world_last_ is the previous frame's pose (it was tracked)
   std::size_t frames_lost_ = 0;
 };
 

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <Eigen/Eigenvalues>
 
 #include "fusion/raycast.h"
 #include "fusion/tsdf_volume.h"
@@ -130,6 +131,102 @@ TEST(Icp, SinglePlaneIsDegenerateButConstrainedPartIsRecovered) {
   EXPECT_TRUE(r.degenerate);
   EXPECT_NEAR(r.T_world_camera.translation().z(), 0.02, 0.001);
   EXPECT_TRUE(r.T_world_camera.finite());
+}
+
+/// Exact normal equations of a floor (normal y) and a wall (normal z) seen by the camera: points
+/// on both planes, Jacobian (p x n, n) of the left increment, residuals r = -J . xi_true, so that
+/// A xi = -b holds for xi_true in every direction the planes constrain. The translation along
+/// their edge (x) enters no residual: row and column 3 of A are exactly zero.
+IcpSystem two_plane_system(const Eigen::Matrix<double, 6, 1>& xi_true) {
+  IcpSystem s;
+  auto add = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+    Eigen::Matrix<double, 6, 1> J;
+    J.head<3>() = p.cross(n);
+    J.tail<3>() = n;
+    const double r = -J.dot(xi_true);
+    s.A += J * J.transpose();
+    s.b += J * r;
+    s.residual_sq += r * r;
+    ++s.inliers;
+  };
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j) {
+      add({-1.0 + 0.2 * i, 1.0, 1.0 + 0.2 * j}, {0.0, 1.0, 0.0});    // floor y = 1
+      add({-1.0 + 0.2 * i, -0.8 + 0.18 * j, 3.0}, {0.0, 0.0, 1.0});  // wall z = 3
+    }
+  s.valid = s.inliers;
+  return s;
+}
+
+TEST(IcpSolve, UnconstrainedDirectionTakesThePriorAndTheRestIsSolvedExactly) {
+  Eigen::Matrix<double, 6, 1> xi_true, prior;
+  xi_true << 0.01, -0.02, 0.015, 0.03, -0.01, 0.02;
+  prior << -0.05, 0.04, 0.03, -0.007, 0.02, -0.03;
+  const IcpSystem s = two_plane_system(xi_true);
+  ASSERT_EQ(s.A.row(3).norm(), 0.0);
+  for (const double ratio : {0.0, 0.01}) {
+    bool degenerate = false;
+    const Eigen::Matrix<double, 6, 1> xi = solve_icp_system(s.A, s.b, prior, ratio, degenerate);
+    EXPECT_TRUE(degenerate);
+    EXPECT_NEAR(xi[3], prior[3], 1e-12) << "ratio " << ratio;  // along the edge: the prior
+    for (const int i : {0, 1, 2, 4, 5}) EXPECT_NEAR(xi[i], xi_true[i], 1e-12) << i;
+  }
+}
+
+TEST(IcpSolve, WeakDirectionBlendsDataAndPriorUpToTheInformationFloor) {
+  Eigen::Matrix<double, 6, 1> xi_true, prior;
+  xi_true << 0.01, -0.02, 0.015, 0.03, -0.01, 0.02;
+  prior << -0.05, 0.04, 0.03, -0.007, 0.02, -0.03;
+  const IcpSystem planes = two_plane_system(xi_true);
+  const double largest =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(planes.A).eigenvalues()[5];
+  const double ratio = 0.01;
+  const double floor = ratio * largest;
+  // A weak constraint along the edge (e.g. a far wall): information w = eigenvalue of e_x.
+  for (const double w : {0.25 * floor, 0.75 * floor, 2.0 * floor}) {
+    IcpSystem s = planes;
+    s.A(3, 3) += w;
+    s.b[3] += -w * xi_true[3];
+    bool degenerate = true;
+    const Eigen::Matrix<double, 6, 1> xi = solve_icp_system(s.A, s.b, prior, ratio, degenerate);
+    // Below the floor the prior supplies the missing information floor - w; above it the data
+    // alone decides.
+    const double expected =
+        w < floor ? (w * xi_true[3] + (floor - w) * prior[3]) / floor : xi_true[3];
+    EXPECT_NEAR(xi[3], expected, 1e-12) << "w / floor " << w / floor;
+    EXPECT_EQ(degenerate, w < floor);
+    for (const int i : {0, 1, 2, 4, 5}) EXPECT_NEAR(xi[i], xi_true[i], 1e-12) << i;
+  }
+}
+
+TEST(Icp, WallAndFloorTakeTheMotionAlongTheirEdgeFromThePrior) {
+  // A floor and a wall only: the data fixes five degrees of freedom, not the translation along
+  // their edge (the camera's x axis). icp() takes that component from the prior pose and the
+  // others from the data, whichever prior it is given.
+  test::Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0, 1, 0), 1.0});
+  scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 3.0});
+  const Pose A = test::look_at({0.0, 0.0, 0.0}, {0.0, 0.4, 3.0});
+  ASSERT_GT(std::abs(A.rotation().col(0).x()), 0.999);  // camera x along the edge
+  TsdfVolume volume{FusionConfig{}};
+  Image<float> depth;
+  test::render(scene, kKinect, A, depth);
+  volume.integrate(depth, kKinect, A);
+  RaycastResult model;
+  raycast(volume, kKinect, A, FusionConfig{}, model);
+  const Pose B = test::motion({0, 1, 0}, 0.5, {0.012, 0.006, -0.008}) * A;
+  const DepthPyramid frame = test::render_pyramid(scene, kKinect, B);
+  IcpWorkspace workspace;
+  for (const Pose& prior : {A, B}) {
+    const IcpResult r = icp(frame, model, A, prior, TrackingConfig{}, workspace);
+    ASSERT_NE(r.status, TrackingStatus::kLost);
+    EXPECT_TRUE(r.degenerate);
+    const Eigen::Vector3d t = r.T_world_camera.translation();
+    EXPECT_NEAR(t.x(), prior.translation().x(), 0.001);
+    EXPECT_NEAR(t.y(), B.translation().y(), 0.001);
+    EXPECT_NEAR(t.z(), B.translation().z(), 0.001);
+    EXPECT_LT(rotation_error_deg(r.T_world_camera, B), 0.05);
+  }
 }
 
 TEST(Icp, ParallelSystemMatchesReferenceAndIgnoresThreadCount) {

@@ -98,6 +98,47 @@ TEST(Reconstruction, HintedHalfResolutionRaycastMatchesTheFullMarch) {
   EXPECT_LE(only_one, both / 200);
 }
 
+/// Error along x (m) of the last of 16 frames moving 4 mm a frame along x: a ball fixes x for
+/// the first 6 frames, then it is gone and only a floor and a wall remain, whose edge runs along
+/// x, so that the data no longer say anything about the motion along it.
+double error_along_the_edge(const Config& config) {
+  test::Scene planes;
+  planes.planes.push_back({Eigen::Vector3d(0, 1, 0), 1.0});
+  planes.planes.push_back({Eigen::Vector3d(0, 0, 1), 3.0});
+  test::Scene with_ball = planes;
+  with_ball.spheres.push_back({Eigen::Vector3d(0.3, 0.7, 2.3), 0.3});
+  Reconstruction rec(config);
+  Pose truth, T_truth0_world;
+  FusionStep step;
+  for (int i = 0; i < 16; ++i) {
+    const Eigen::Vector3d eye(0.004 * i, 0.0, 0.0);
+    truth = test::look_at(eye, eye + Eigen::Vector3d(0.0, 0.4, 3.0));
+    PreprocessedFrame frame;
+    frame.pyramid = test::render_pyramid(i < 6 ? with_ball : planes, kKinect, truth);
+    frame.depth_m = frame.pyramid.depth_m[0];
+    frame.filtered_m = frame.pyramid.depth_m[0];
+    if (i == 0) T_truth0_world = truth.inverse();
+    step = rec.process(frame, kKinect, std::make_shared<RaycastResult>());
+    EXPECT_NE(step.status, TrackingStatus::kLost) << "frame " << i;
+  }
+  // The world is the first camera's frame, whose x axis is the scene's.
+  return step.T_world_camera.translation().x() - (T_truth0_world * truth).translation().x();
+}
+
+TEST(Reconstruction, MotionAlongAWallFloorEdgeContinuesAtTheTrackedVelocity) {
+  // The data fix x while the ball is in view; after that the estimate along the edge is the
+  // motion prior's. Without a velocity (the previous pose as the prior) x stops where the ball
+  // left, 10 frames x 4 mm behind.
+  Config config;
+  const double with_velocity = error_along_the_edge(config);
+  config.tracking.velocity_smoothing = 0.0;
+  const double without = error_along_the_edge(config);
+  std::printf("error along the edge after 10 frames: %.2f mm with velocity, %.2f mm without\n",
+              1e3 * with_velocity, 1e3 * without);
+  EXPECT_LT(std::abs(with_velocity), 0.002);
+  EXPECT_LT(without, -0.03);
+}
+
 TEST(Reconstruction, SecondFrameOfANoisyRoomTracksAgainstTheFirstFramesOwnMaps) {
   // The room at 1.5-3.4 m with Kinect v1 noise (about 1 cm axial noise, 2-3 cm disparity steps):
   // a model of one frame is that frame's raw depth, and tracking the second frame against its
