@@ -553,15 +553,20 @@ __attribute__((target("avx2,fma"))) AOSCAN_NO_CONTRACT void smoothed_normals8(
 }
 #endif
 
+/// What both smoothings write besides the normals: the intrinsics and the vertices, as they are.
+void copy_model_but_normals(const PointMaps& in, PointMaps& out) {
+  out.intrinsics = in.intrinsics;
+  out.vertices = in.vertices;
+  out.normals.resize(in.vertices.width(), in.vertices.height(), Eigen::Vector3f::Zero());
+}
+
 }  // namespace
 
 void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m,
                           PointMaps& out, std::vector<float>& scratch) {
   const int w = in.vertices.width();
   const int h = in.vertices.height();
-  out.intrinsics = in.intrinsics;
-  out.vertices = in.vertices;
-  out.normals.resize(w, h, Eigen::Vector3f::Zero());
+  copy_model_but_normals(in, out);
   const float max_distance_sq = max_distance_m * max_distance_m;
   const int r = std::max(radius_px, 0);
   bool simd = false;
@@ -606,14 +611,10 @@ void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance
 
 void smooth_model_normals_reference(const PointMaps& in, int radius_px, float max_distance_m,
                                     PointMaps& out) {
-  const int w = in.vertices.width();
-  const int h = in.vertices.height();
-  out.intrinsics = in.intrinsics;
-  out.vertices = in.vertices;
-  out.normals.resize(w, h, Eigen::Vector3f::Zero());
+  copy_model_but_normals(in, out);
   const float max_distance_sq = max_distance_m * max_distance_m;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
+  for (int y = 0; y < in.vertices.height(); ++y)
+    for (int x = 0; x < in.vertices.width(); ++x)
       out.normals(x, y) = smoothed_normal(in, x, y, std::max(radius_px, 0), max_distance_sq);
 }
 

@@ -108,16 +108,21 @@ class GlTest : public ::testing::Test {
   }
   void TearDown() override { window_.reset(); }
 
+  /// A renderer and a w x h offscreen target on this test's context.
+  void make_rig(GlViewRenderer& renderer, GlOffscreenTarget& target, int w, int h) {
+    std::string error;
+    ASSERT_TRUE(renderer.init(window_->gl(), error)) << error;
+    ASSERT_TRUE(target.create(window_->gl(), w, h, error)) << error;
+  }
+
   /// Renders `view` of `frame` at the frame's size through GL and reads it back; `view_only`
   /// uploads only what the view draws, as the live view does.
   Image<Rgb8> render_gl(const ViewFrame& frame, View view, const ViewStyle& style,
                         const OrbitCamera& orbit = {}, bool view_only = false) {
     const GlApi& gl = window_->gl();
-    std::string error;
     GlViewRenderer renderer;
-    EXPECT_TRUE(renderer.init(gl, error)) << error;
     GlOffscreenTarget target;
-    EXPECT_TRUE(target.create(gl, frame.intrinsics.width, frame.intrinsics.height, error)) << error;
+    make_rig(renderer, target, frame.intrinsics.width, frame.intrinsics.height);
     target.bind();
     const Rgb8 bg = style.background;
     gl.Viewport(0, 0, frame.intrinsics.width, frame.intrinsics.height);
@@ -203,11 +208,10 @@ TEST_F(GlTest, ExactGreyAndNormalColours) {
 
 TEST_F(GlTest, ReuploadsOfSameAndOtherSizesShowTheNewFrame) {
   const GlApi& gl = window_->gl();
-  std::string error;
   GlViewRenderer renderer;
-  ASSERT_TRUE(renderer.init(gl, error)) << error;
   GlOffscreenTarget target;
-  ASSERT_TRUE(target.create(gl, 40, 30, error)) << error;
+  make_rig(renderer, target, 40, 30);
+  if (HasFatalFailure()) return;
   const ViewStyle style;
   for (const auto& [w, h] : {std::pair{40, 30}, std::pair{40, 30}, std::pair{20, 10}}) {
     ViewFrame frame = testing::sphere_wall_frame(w, h);
@@ -229,11 +233,10 @@ TEST_F(GlTest, ViewOnlyUploadsShowTheNewFrameInThatView) {
   // The live view uploads the current view's data of each new frame: after a full upload of one
   // frame, a view-only upload of another shows the other in that view, whichever it is.
   const GlApi& gl = window_->gl();
-  std::string error;
   GlViewRenderer renderer;
-  ASSERT_TRUE(renderer.init(gl, error)) << error;
   GlOffscreenTarget target;
-  ASSERT_TRUE(target.create(gl, 40, 30, error)) << error;
+  make_rig(renderer, target, 40, 30);
+  if (HasFatalFailure()) return;
   const ViewStyle style;
   ViewFrame first = testing::sphere_wall_frame(40, 30);
   first.ssao.fill(0.2f);
