@@ -91,9 +91,8 @@ class NearestCells {
 
 }  // namespace
 
-std::size_t apply_grid_ao(const MvaoGrid& grid, TriangleMesh& mesh) {
-  if (grid.mesh_cell_factor() > 1)
-    return apply_grid_ao_cells(grid.coarsened(grid.mesh_cell_factor()), mesh);
+std::size_t apply_grid_ao(const MvaoGrid& grid, int mesh_cell_factor, TriangleMesh& mesh) {
+  if (mesh_cell_factor > 1) return apply_grid_ao_cells(grid.coarsened(mesh_cell_factor), mesh);
   return apply_grid_ao_cells(grid, mesh);
 }
 

@@ -9,10 +9,9 @@
 
 namespace aoscan {
 
-/// Sets mesh.quality (one per vertex, in [0, 1], never NaN) from
-/// grid.coarsened(grid.mesh_cell_factor()) (the grid itself for a factor of 1) through
-/// apply_grid_ao_cells().
-std::size_t apply_grid_ao(const MvaoGrid& grid, TriangleMesh& mesh);
+/// Sets mesh.quality (one per vertex, in [0, 1], never NaN) from grid.coarsened(mesh_cell_factor)
+/// (ao.mesh_cell_factor; the grid itself for a factor of 1 or less) through apply_grid_ao_cells().
+std::size_t apply_grid_ao(const MvaoGrid& grid, int mesh_cell_factor, TriangleMesh& mesh);
 
 /// Sets mesh.quality (one per vertex, in [0, 1], never NaN) from `grid`'s own cells: the trilinear
 /// sample at the vertex (world frame, metres); where none of the 8 surrounding cells was observed

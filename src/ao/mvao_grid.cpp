@@ -44,14 +44,10 @@ inline bool to_cell_fast(double v, std::int32_t& cell) {
 }  // namespace
 
 MvaoGrid::MvaoGrid(const AoConfig& config)
-    : MvaoGrid(config.grid_extent_m / config.grid_resolution, config.integration,
-               config.mesh_cell_factor) {}
+    : MvaoGrid(config.grid_extent_m / config.grid_resolution, config.integration) {}
 
-MvaoGrid::MvaoGrid(double cell_size_m, AoIntegration mode, int mesh_cell_factor)
-    : cell_size_m_(cell_size_m),
-      inv_cell_size_(1.0 / cell_size_m),
-      mode_(mode),
-      mesh_cell_factor_(std::max(mesh_cell_factor, 1)) {
+MvaoGrid::MvaoGrid(double cell_size_m, AoIntegration mode)
+    : cell_size_m_(cell_size_m), inv_cell_size_(1.0 / cell_size_m), mode_(mode) {
   if (!(cell_size_m_ > 0.0) || !std::isfinite(cell_size_m_))
     throw usage_error("ao.grid_extent_m / ao.grid_resolution must give a positive cell size");
   clear();
@@ -59,7 +55,7 @@ MvaoGrid::MvaoGrid(double cell_size_m, AoIntegration mode, int mesh_cell_factor)
 
 MvaoGrid MvaoGrid::coarsened(int factor) const {
   const int f = std::max(factor, 1);
-  MvaoGrid out(cell_size_m_ * f, mode_, 1);
+  MvaoGrid out(cell_size_m_ * f, mode_);
   out.frames_ = frames_;
   out.points_integrated_ = points_integrated_;
   out.points_out_of_range_ = points_out_of_range_;

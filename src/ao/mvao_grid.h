@@ -94,8 +94,6 @@ class MvaoGrid {
   /// the sums of the observed cells inside it (cell i of this grid goes to floor(i / factor)), so
   /// its AO is their weighted mean. factor < 1 is taken as 1.
   MvaoGrid coarsened(int factor) const;
-  /// config.mesh_cell_factor: apply_grid_ao() reads coarsened(mesh_cell_factor()).
-  int mesh_cell_factor() const { return mesh_cell_factor_; }
 
   /// Calls f(CellIndex, const MvaoCell&) for every observed cell (table order).
   template <class F>
@@ -115,7 +113,7 @@ class MvaoGrid {
 
  private:
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // never a Morton code (bit 63)
-  MvaoGrid(double cell_size_m, AoIntegration mode, int mesh_cell_factor);
+  MvaoGrid(double cell_size_m, AoIntegration mode);
   std::size_t slot_of(std::uint64_t code) const;  // slot holding code, or the empty slot for it
   MvaoCell& insert(std::uint64_t code);
   void grow();
@@ -125,7 +123,6 @@ class MvaoGrid {
   double cell_size_m_;
   double inv_cell_size_;  ///< 1 / cell_size_m_: every point-to-cell mapping multiplies by it
   AoIntegration mode_;
-  int mesh_cell_factor_;
   std::vector<std::uint64_t> keys_;
   std::vector<MvaoCell> cells_;
   std::size_t size_ = 0;

@@ -114,7 +114,7 @@ Status Processing::mvao(FrameWork& frame) {
 void Processing::write_requested_outputs(FrameWork& frame) {
   const std::filesystem::path dir(out_dir_);
   try {
-    apply_grid_ao(grid_, *frame.export_mesh);
+    apply_grid_ao(grid_, config_.ao.mesh_cell_factor, *frame.export_mesh);
     write_ply((dir / "mesh.ply").string(), *frame.export_mesh);
     write_trajectory((dir / "trajectory.txt").string(), *frame.export_trajectory);
     ++outputs_written_;
@@ -131,7 +131,7 @@ Processing::ExportStats Processing::write_outputs(const std::string& out_dir) co
   const std::filesystem::path dir(out_dir);
   write_trajectory((dir / "trajectory.txt").string(), trajectory_);
   auto mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh());
-  const std::size_t unobserved = apply_grid_ao(grid_, *mesh);
+  const std::size_t unobserved = apply_grid_ao(grid_, config_.ao.mesh_cell_factor, *mesh);
   write_ply((dir / "mesh.ply").string(), *mesh);
   return {mesh->vertices.size(), mesh->faces.size(), unobserved, mesh};
 }

@@ -10,22 +10,23 @@
 namespace aoscan {
 namespace {
 
-/// A grid with cell size 0.25 m holding cell (0,0,0) = 0.2 and cell (8,0,0) = 0.8.
-MvaoGrid two_cell_grid() {
+/// A grid with cell size 0.25 m (mean integration) holding 0.2 in cell (0,0,0) and `second_ao`
+/// in the cell of `second` (by default cell (8,0,0) = 0.8).
+MvaoGrid two_cell_grid(const Eigen::Vector3f& second = {2.1f, 0.1f, 0.1f},
+                       float second_ao = 0.8f) {
   AoConfig c;
   c.grid_extent_m = 1.0;
   c.grid_resolution = 4;
   c.integration = AoIntegration::kMean;
-  c.mesh_cell_factor = 1;  // the grid's own cells
   MvaoGrid grid(c);
   Image<float> ao(2, 1), w(2, 1, 1.0f);
   ao(0, 0) = 0.2f;
-  ao(1, 0) = 0.8f;
+  ao(1, 0) = second_ao;
   PointMaps maps;
   maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
   maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
   maps.vertices(0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
-  maps.vertices(1, 0) = Eigen::Vector3f(2.1f, 0.1f, 0.1f);
+  maps.vertices(1, 0) = second;
   grid.integrate(ao, w, maps, Pose::identity());
   return grid;
 }
@@ -40,7 +41,7 @@ TEST(MeshAo, SamplesTheGridAndFallsBackToTheNearestCell) {
                    {40.0f, -30.0f, 10.0f},    // far away: nearest is cell 8
                    {std::nanf(""), 0.0f, 0.0f}};
   mesh.faces = {{0, 1, 2}, {3, 4, 5}};
-  EXPECT_EQ(apply_grid_ao(grid, mesh), 4u);
+  EXPECT_EQ(apply_grid_ao(grid, 1, mesh), 4u);  // the grid's own cells
   ASSERT_EQ(mesh.quality.size(), mesh.vertices.size());
   EXPECT_FLOAT_EQ(mesh.quality[0], 0.2f);
   EXPECT_FLOAT_EQ(mesh.quality[1], 0.8f);
@@ -51,25 +52,11 @@ TEST(MeshAo, SamplesTheGridAndFallsBackToTheNearestCell) {
 }
 
 TEST(MeshAo, ReadsTheGridThroughCoarserCellsWithTheMeshCellFactor) {
-  AoConfig c;
-  c.grid_extent_m = 1.0;
-  c.grid_resolution = 4;  // cells of 0.25 m
-  c.integration = AoIntegration::kMean;
-  c.mesh_cell_factor = 2;
-  MvaoGrid grid(c);
-  // Cells (0,0,0) = 0.2 and (1,0,0) = 0.6 share the coarse cell (0,0,0): mean 0.4 there.
-  Image<float> ao(2, 1), w(2, 1, 1.0f);
-  ao(0, 0) = 0.2f;
-  ao(1, 0) = 0.6f;
-  PointMaps maps;
-  maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
-  maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
-  maps.vertices(0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
-  maps.vertices(1, 0) = Eigen::Vector3f(0.3f, 0.1f, 0.1f);
-  grid.integrate(ao, w, maps, Pose::identity());
+  // Cells (0,0,0) = 0.2 and (1,0,0) = 0.6 share the coarse cell (0,0,0) of factor 2: mean 0.4.
+  const MvaoGrid grid = two_cell_grid({0.3f, 0.1f, 0.1f}, 0.6f);
   TriangleMesh mesh;
   mesh.vertices = {{0.125f, 0.125f, 0.125f}, {0.25f, 0.25f, 0.25f}};
-  EXPECT_EQ(apply_grid_ao(grid, mesh), 0u);
+  EXPECT_EQ(apply_grid_ao(grid, 2, mesh), 0u);
   EXPECT_FLOAT_EQ(mesh.quality[0], 0.4f);
   EXPECT_FLOAT_EQ(mesh.quality[1], 0.4f);
   // The grid's own cells: cell (0,0,0)'s centre gives its own value.
@@ -83,10 +70,10 @@ TEST(MeshAo, EmptyGridGivesOpenVertices) {
   TriangleMesh mesh;
   mesh.vertices = {{0.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f}};
   mesh.quality = {0.3f};  // stale values are replaced
-  EXPECT_EQ(apply_grid_ao(grid, mesh), 3u);
+  EXPECT_EQ(apply_grid_ao(grid, c.mesh_cell_factor, mesh), 3u);
   EXPECT_EQ(mesh.quality, std::vector<float>(3, 1.0f));
   TriangleMesh none;
-  EXPECT_EQ(apply_grid_ao(grid, none), 0u);
+  EXPECT_EQ(apply_grid_ao(grid, c.mesh_cell_factor, none), 0u);
   EXPECT_TRUE(none.quality.empty());
 }
 
