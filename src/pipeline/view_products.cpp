@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <limits>
-#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -23,31 +22,35 @@ void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world
   if (slots != nullptr && (slots->width() != w || slots->height() != out.height()))
     slots = nullptr;
   tbb::parallel_for(tbb::blocked_range<int>(0, out.height()), [&](const tbb::blocked_range<int>& r) {
-    std::vector<Eigen::Vector3f> rest;  // the row's pixels without a slot, looked up together
-    std::vector<int> rest_x;
-    std::vector<float> rest_ao;
+    // The pixels without a slot are looked up in batches gathered on the stack.
+    constexpr int kBatch = 64;
+    Eigen::Vector3f rest[kBatch];
+    int rest_x[kBatch];
+    float rest_ao[kBatch];
     for (int y = r.begin(); y < r.end(); ++y) {
+      const Eigen::Vector3f* vertices = maps.vertices.row(y);
+      float* ao = out.row(y);
       if (slots == nullptr) {
-        grid.lookup_ao(maps.vertices.row(y), static_cast<std::size_t>(w), T_world_camera,
-                       out.row(y));
+        grid.lookup_ao(vertices, static_cast<std::size_t>(w), T_world_camera, ao);
         continue;
       }
       const std::uint32_t* slot = slots->row(y);
-      const Eigen::Vector3f* vertices = maps.vertices.row(y);
-      float* ao = out.row(y);
-      rest.clear();
-      rest_x.clear();
+      int count = 0;
+      const auto flush = [&] {
+        grid.lookup_ao(rest, static_cast<std::size_t>(count), T_world_camera, rest_ao);
+        for (int i = 0; i < count; ++i) ao[rest_x[i]] = rest_ao[i];
+        count = 0;
+      };
       for (int x = 0; x < w; ++x) {
         if (slot[x] != MvaoGrid::kNoSlot) {
           ao[x] = grid.slot_ao(slot[x]);
-        } else {
-          rest.push_back(vertices[x]);
-          rest_x.push_back(x);
+          continue;
         }
+        rest[count] = vertices[x];
+        rest_x[count] = x;
+        if (++count == kBatch) flush();
       }
-      rest_ao.resize(rest.size());
-      grid.lookup_ao(rest.data(), rest.size(), T_world_camera, rest_ao.data());
-      for (std::size_t i = 0; i < rest.size(); ++i) ao[rest_x[i]] = rest_ao[i];
+      flush();
     }
   });
 }
