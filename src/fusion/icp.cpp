@@ -603,12 +603,6 @@ void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance
   });
 }
 
-void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m,
-                          PointMaps& out) {
-  std::vector<float> scratch;
-  smooth_model_normals(in, radius_px, max_distance_m, out, scratch);
-}
-
 void smooth_model_normals_reference(const PointMaps& in, int radius_px, float max_distance_m,
                                     PointMaps& out) {
   copy_model_but_normals(in, out);

@@ -103,8 +103,6 @@ struct IcpWorkspace {
 /// reused between calls.
 void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m, PointMaps& out,
                           std::vector<float>& scratch);
-/// smooth_model_normals() with a scratch buffer of its own.
-void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m, PointMaps& out);
 /// Plain serial reference of smooth_model_normals().
 void smooth_model_normals_reference(const PointMaps& in, int radius_px, float max_distance_m,
                                     PointMaps& out);

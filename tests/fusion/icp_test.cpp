@@ -373,7 +373,8 @@ TEST(Icp, SmoothModelNormalsAveragesOneSurfaceOnly) {
   in.vertices(12, 4).setZero();  // no vertex: stays without a normal, is no neighbour
   in.normals(12, 4).setZero();
   PointMaps out;
-  smooth_model_normals(in, 1, 0.05f, out);
+  std::vector<float> scratch;
+  smooth_model_normals(in, 1, 0.05f, out, scratch);
   EXPECT_EQ(out.intrinsics, k);
   EXPECT_EQ(out.vertices, in.vertices);
   // An interior left pixel sums 5 of one tilt and 4 of the other: the x components leave one
