@@ -4,6 +4,7 @@
 #include "ao/ssao.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <tbb/blocked_range.h>
@@ -205,27 +206,49 @@ float integrate_arc(float h, float n, float cos_n, float sin_n) {
   return 0.25f * (cos_n + 2.0f * h * sin_n - std::cos(2.0f * h - n));
 }
 
-PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
-                        const Eigen::Vector3f& n) {
-  const PointMaps& maps = *s.maps;
+/// The frame the slice estimators (horizon, heightfield) share: the pixel's slice directions and
+/// sample offsets, its screen radius for `radius_m`, each slice that make_slice() accepts handed
+/// to slice_fn, which returns the slice's {visibility, open} integrals (before the projected
+/// normal's length weighs them) and counts the samples it used in `counted`; the pixel's AO is
+/// the weighted visibility over the weighted open integral.
+template <class SliceFn>
+PixelAo slice_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                 const Eigen::Vector3f& n, float radius_m, SliceFn&& slice_fn) {
   const SsaoPattern& pat = *s.pattern;
   const int cls = pattern_class(x, y);
   const Eigen::Vector2f* offs = pat.offsets.data() + cls * pat.samples;
   const Eigen::Vector2f* dirs = pat.slice_dirs.data() + cls * pat.slices;
-  const float rx = std::min(s.fx * s.radius_m / p.z(), kMaxRadiusPx);
-  const float ry = std::min(s.fy * s.radius_m / p.z(), kMaxRadiusPx);
+  const float rx = std::min(s.fx * radius_m / p.z(), kMaxRadiusPx);
+  const float ry = std::min(s.fy * radius_m / p.z(), kMaxRadiusPx);
   const Eigen::Vector3f view = -p.normalized();
   float visibility = 0.0f, open = 0.0f;
   int counted = 0;
   for (int sl = 0; sl < pat.slices; ++sl) {
     Slice slice;
     if (!make_slice(dirs[sl], view, n, slice)) continue;
-    const float proj_len = slice.proj_len, cos_n = slice.cos_n, n_ang = slice.n_ang;
+    const std::array<float, 2> vo =
+        slice_fn(slice, offs + sl * 2 * pat.steps, rx, ry, view, counted);
+    visibility += slice.proj_len * vo[0];
+    open += slice.proj_len * vo[1];
+  }
+  const float coverage = static_cast<float>(counted) / static_cast<float>(pat.samples);
+  if (!(open > 0.0f)) return {1.0f, coverage};
+  return {std::min(std::max(visibility / open, 0.0f), 1.0f), coverage};
+}
+
+PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                        const Eigen::Vector3f& n) {
+  const PointMaps& maps = *s.maps;
+  const int steps = s.pattern->steps;
+  return slice_ao(s, x, y, p, n, s.radius_m,
+                  [&](const Slice& slice, const Eigen::Vector2f* offs, float rx, float ry,
+                      const Eigen::Vector3f& view, int& counted) {
+    const float cos_n = slice.cos_n, n_ang = slice.n_ang;
     float horizon_cos[2] = {std::cos(n_ang + kHalfPiF), std::cos(n_ang - kHalfPiF)};
     const float low_cos[2] = {horizon_cos[0], horizon_cos[1]};
     for (int side = 0; side < 2; ++side) {
-      const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
-      for (int k = 0; k < pat.steps; ++k) {
+      const Eigen::Vector2f* so = offs + side * steps;
+      for (int k = 0; k < steps; ++k) {
         Eigen::Vector3f v;
         float d2 = 0.0f;
         if (!sample_vector(maps, x, y, so[k], rx, ry, p, v, d2)) continue;
@@ -241,14 +264,11 @@ PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f
     h0 = n_ang + std::min(h0 - n_ang, kHalfPiF);
     h1 = n_ang + std::max(h1 - n_ang, -kHalfPiF);
     const float sin_n = std::sin(n_ang);
-    visibility += proj_len *
-                  (integrate_arc(h0, n_ang, cos_n, sin_n) + integrate_arc(h1, n_ang, cos_n, sin_n));
-    open += proj_len * (integrate_arc(n_ang + kHalfPiF, n_ang, cos_n, sin_n) +
-                        integrate_arc(n_ang - kHalfPiF, n_ang, cos_n, sin_n));
-  }
-  const float coverage = static_cast<float>(counted) / static_cast<float>(pat.samples);
-  if (!(open > 0.0f)) return {1.0f, coverage};
-  return {std::min(std::max(visibility / open, 0.0f), 1.0f), coverage};
+    return std::array<float, 2>{
+        integrate_arc(h0, n_ang, cos_n, sin_n) + integrate_arc(h1, n_ang, cos_n, sin_n),
+        integrate_arc(n_ang + kHalfPiF, n_ang, cos_n, sin_n) +
+            integrate_arc(n_ang - kHalfPiF, n_ang, cos_n, sin_n)};
+  });
 }
 
 /// Heightfield estimator: per slice side, the samples in order of distance raise the horizon;
@@ -259,20 +279,12 @@ PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f
 PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
                             const Eigen::Vector3f& n) {
   const PointMaps& maps = *s.maps;
-  const SsaoPattern& pat = *s.pattern;
-  const int cls = pattern_class(x, y);
-  const Eigen::Vector2f* offs = pat.offsets.data() + cls * pat.samples;
-  const Eigen::Vector2f* dirs = pat.slice_dirs.data() + cls * pat.slices;
-  const float rx = std::min(s.fx * s.t_max_m / p.z(), kMaxRadiusPx);
-  const float ry = std::min(s.fy * s.t_max_m / p.z(), kMaxRadiusPx);
-  const Eigen::Vector3f view = -p.normalized();
+  const int steps = s.pattern->steps;
   const Eigen::Vector3f lowered = n * (s.bias * p.z());
-  float visibility = 0.0f, open = 0.0f;
-  int counted = 0;
-  for (int sl = 0; sl < pat.slices; ++sl) {
-    Slice slice;
-    if (!make_slice(dirs[sl], view, n, slice)) continue;
-    const float proj_len = slice.proj_len, cos_n = slice.cos_n, n_ang = slice.n_ang;
+  return slice_ao(s, x, y, p, n, s.t_max_m,
+                  [&](const Slice& slice, const Eigen::Vector2f* offs, float rx, float ry,
+                      const Eigen::Vector3f& view, int& counted) {
+    const float cos_n = slice.cos_n, n_ang = slice.n_ang;
     const float sin_n = std::sin(n_ang);
     float slice_visibility = 0.0f, slice_open = 0.0f;
     for (int side = 0; side < 2; ++side) {
@@ -281,8 +293,8 @@ PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vect
       float horizon_cos = std::cos(tangent);
       float arc = integrate_arc(tangent, n_ang, cos_n, sin_n);
       float side_visibility = arc;
-      const Eigen::Vector2f* so = offs + (sl * 2 + side) * pat.steps;
-      for (int k = 0; k < pat.steps; ++k) {
+      const Eigen::Vector2f* so = offs + side * steps;
+      for (int k = 0; k < steps; ++k) {
         Eigen::Vector3f v;
         float d2 = 0.0f;
         if (!sample_vector(maps, x, y, so[k], rx, ry, p, v, d2)) continue;
@@ -300,12 +312,8 @@ PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vect
       slice_visibility += side_visibility;
       slice_open += integrate_arc(tangent, n_ang, cos_n, sin_n);
     }
-    visibility += proj_len * slice_visibility;
-    open += proj_len * slice_open;
-  }
-  const float coverage = static_cast<float>(counted) / static_cast<float>(pat.samples);
-  if (!(open > 0.0f)) return {1.0f, coverage};
-  return {std::min(std::max(visibility / open, 0.0f), 1.0f), coverage};
+    return std::array<float, 2>{slice_visibility, slice_open};
+  });
 }
 
 using PixelFn = PixelAo (*)(const FrameSetup&, int, int, const Eigen::Vector3f&,
