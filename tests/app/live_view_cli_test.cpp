@@ -41,9 +41,11 @@ constexpr const char* kWindowEnv = "ASAN_OPTIONS=detect_leaks=0:abort_on_error=1
 constexpr const char* kWindowEnv = "";
 #endif
 
-/// A replay long enough to act on while it runs: 150 frames paced at 30 Hz (5 s).
-constexpr const char* kLongRealtimeSynth = "'synth:corner?frames=150&width=160&height=120'";
-constexpr int kLongFrames = 150;
+/// A replay long enough to act on while it runs: 450 frames paced at 30 Hz (15 s). Under the
+/// sanitizers, with other tests beside it, the low-priority window thread may take seconds to
+/// map its window; the run must still be going when the test then closes the display.
+constexpr const char* kLongRealtimeSynth = "'synth:corner?frames=450&width=160&height=120'";
+constexpr int kLongFrames = 450;
 /// A 20 s realtime replay for the close test: the window thread runs at a low priority, and on a
 /// loaded machine (two sanitized tests at once) it may take seconds to handle the close; the run
 /// must still be going then. A working close ends it within a second or two.
