@@ -78,7 +78,7 @@ struct FusionConfig {
   double voxel_size_m = 4.0 / 512.0;        ///< TSDF voxel edge (m)
   double truncation_m = 4.5 * 4.0 / 512.0;  ///< TSDF truncation band (m)
   double max_weight = 100.0;         ///< cap of the per-voxel running-average weight (observations)
-  int max_blocks = 131072;           ///< capacity of the sparse volume in 8^3 blocks (4 KiB each)
+  int max_blocks = 131072;           ///< capacity of the sparse volume in 8^3 blocks (2 KiB each)
   double raycast_min_depth_m = 0.2;  ///< raycast: nearest depth searched along a ray (m)
   double raycast_max_depth_m = 5.0;  ///< raycast: farthest depth searched along a ray (m)
   double mesh_min_weight = 1.0;      ///< mesh: cubes with a corner of lower weight are not meshed
@@ -90,9 +90,10 @@ struct FusionConfig {
   void visit(V& v) {
     v.number("voxel_size_m", voxel_size_m, "TSDF voxel edge (m)", 1e-4, 1.0);
     v.number("truncation_m", truncation_m, "TSDF truncation distance (m)", 1e-4, 10.0);
-    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations)", 1.0, 1e6);
+    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations)", 1.0,
+             65535.0);
     v.integer("max_blocks", max_blocks,
-              "TSDF capacity in 8^3 voxel blocks of 4 KiB; reaching it is reported", 1, 1 << 24);
+              "TSDF capacity in 8^3 voxel blocks of 2 KiB; reaching it is reported", 1, 1 << 24);
     v.number("raycast_min_depth_m", raycast_min_depth_m, "raycast: nearest depth searched (m)", 0.0,
              100.0);
     v.number("raycast_max_depth_m", raycast_max_depth_m, "raycast: farthest depth searched (m)",

@@ -109,7 +109,7 @@ void edge_vertex(TsdfSampler& sampler, const Eigen::Vector3i& g, int axis, float
 }
 
 bool usable(const Voxel* v, float min_weight) {
-  return v != nullptr && v->weight >= min_weight && v->weight > 0.0f;
+  return v != nullptr && v->weight() >= min_weight && v->count > 0;
 }
 
 /// Per-block output of the vertex pass.
@@ -179,9 +179,9 @@ TriangleMesh extract_mesh(const TsdfVolume& volume, float min_weight) {
             Eigen::Vector3i h = g;
             h[axis] += 1;
             const Voxel* v1 = sampler.voxel(h.x(), h.y(), h.z());
-            if (!usable(v1, min_weight) || (v0.tsdf < 0.0f) == (v1->tsdf < 0.0f)) continue;
+            if (!usable(v1, min_weight) || (v0.tsdf_q < 0) == (v1->tsdf_q < 0)) continue;
             Eigen::Vector3f p, nrm;
-            edge_vertex(sampler, g, axis, v0.tsdf, v1->tsdf, vs, p, nrm);
+            edge_vertex(sampler, g, axis, v0.tsdf(), v1->tsdf(), vs, p, nrm);
             bv.codes.push_back(static_cast<std::uint16_t>(local * 3 + axis));
             bv.positions.push_back(p);
             bv.normals.push_back(nrm);
@@ -212,7 +212,7 @@ TriangleMesh extract_mesh(const TsdfVolume& volume, float min_weight) {
             }
             corner[c] = &volume.block(order[nb]).voxels[voxel_index(cx & 7, cy & 7, cz & 7)];
             ok = usable(corner[c], min_weight);
-            if (corner[c]->tsdf < 0.0f) mask |= 1 << c;
+            if (corner[c]->tsdf_q < 0) mask |= 1 << c;
           }
           if (!ok || mask == 0 || mask == 255) continue;
           for (const auto& tri : table.triangles[mask]) {
@@ -273,7 +273,7 @@ TriangleMesh extract_mesh_reference(const TsdfVolume& volume, float min_weight) 
             const Voxel* v = volume.find_voxel(h);
             ok = usable(v, min_weight);
             if (ok) {
-              f[c] = v->tsdf;
+              f[c] = v->tsdf();
               if (f[c] < 0.0f) mask |= 1 << c;
             }
           }

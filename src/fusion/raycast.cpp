@@ -284,14 +284,14 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
       prev_valid = false;
       continue;
     }
-    if (!(v->weight > 0.0f)) {
+    if (v->count == 0) {
       // Unobserved voxels carry no surface; a step under the truncation cannot jump over the
       // positive band in front of an observed one.
       prev_valid = false;
       s += big_step;
       continue;
     }
-    const float f = v->tsdf;
+    const float f = v->tsdf();
     if (prev_valid && prev_f >= 0.0f && f < 0.0f) {
       float f0 = 0.0f, f1 = 0.0f;
       bool ok0 = sampler.trilinear(ray.origin + prev_s * ray.dir, f0);

@@ -122,10 +122,7 @@ void update_block_portable(const BlockProjection& b, Voxel* voxels) {
         const float sdf = d - depth_z[x];
         if (sdf < -b.truncation) continue;
         const float tsdf = std::min(1.0f, sdf * b.inv_trunc);
-        Voxel& voxel = out[x];
-        const float w = voxel.weight;
-        voxel.tsdf = (voxel.tsdf * w + tsdf) / (w + 1.0f);
-        voxel.weight = std::min(w + 1.0f, b.max_weight);
+        out[x].add_observation(tsdf, b.max_weight);
       }
     }
   }
@@ -133,13 +130,12 @@ void update_block_portable(const BlockProjection& b, Voxel* voxels) {
 
 #if AOSCAN_TSDF_X86
 
-/// update_block_portable() with one voxel row (8 voxels) per AVX2 vector and a gather of the 8
-/// depths: the same operations in the same order, so bit for bit the same result (no FMA).
+/// update_block_portable() with one voxel row (8 voxels, 32 bytes) per AVX2 vector and a gather
+/// of the 8 depths: the same operations in the same order, so bit for bit the same result (no FMA;
+/// the fixed-point TSDF rounds to nearest even like std::lrint, the count truncates).
 __attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b, Voxel* voxels) {
-  static_assert(kBlockSize == 8 && sizeof(Voxel) == 8, "one row of voxels = two AVX registers");
-  // Voxels are interleaved (tsdf, weight); loading a row as two vectors and shuffling puts the
-  // voxels in the lane order 0 1 4 5 2 3 6 7, so every per-voxel vector uses that order too.
-  const __m256 lane_x = _mm256_setr_ps(0, 1, 4, 5, 2, 3, 6, 7);
+  static_assert(kBlockSize == 8 && sizeof(Voxel) == 4, "one row of voxels = one AVX register");
+  const __m256 lane_x = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 off_x = _mm256_mul_ps(lane_x, _mm256_set1_ps(b.dx.x()));
   const __m256 off_y = _mm256_mul_ps(lane_x, _mm256_set1_ps(b.dx.y()));
   const __m256 off_z = _mm256_mul_ps(lane_x, _mm256_set1_ps(b.dx.z()));
@@ -151,6 +147,9 @@ __attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b,
   const __m256 neg_trunc = _mm256_set1_ps(-b.truncation);
   const __m256 inv_trunc = _mm256_set1_ps(b.inv_trunc);
   const __m256 max_weight = _mm256_set1_ps(b.max_weight);
+  const __m256 tsdf_scale = _mm256_set1_ps(Voxel::kTsdfScale);
+  const __m256 tsdf_step = _mm256_set1_ps(Voxel::kTsdfStep);
+  const __m256i low16 = _mm256_set1_epi32(0xFFFF);
   const __m256i width = _mm256_set1_epi32(b.width);
   for (int z = 0; z < kBlockSize; ++z) {
     for (int y = 0; y < kBlockSize; ++y) {
@@ -178,18 +177,19 @@ __attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b,
       mask = _mm256_and_ps(mask, _mm256_cmp_ps(sdf, neg_trunc, _CMP_NLT_UQ));
       if (_mm256_movemask_ps(mask) == 0) continue;
       const __m256 tsdf = _mm256_min_ps(_mm256_mul_ps(sdf, inv_trunc), one);
-      float* out = &voxels[voxel_index(0, y, z)].tsdf;
-      const __m256 lo = _mm256_loadu_ps(out);      // t0 w0 t1 w1 | t2 w2 t3 w3
-      const __m256 hi = _mm256_loadu_ps(out + 8);  // t4 w4 t5 w5 | t6 w6 t7 w7
-      const __m256 t = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(2, 0, 2, 0));  // t0 t1 t4 t5 | ...
-      const __m256 w = _mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(3, 1, 3, 1));
+      auto* out = reinterpret_cast<__m256i*>(voxels + voxel_index(0, y, z));
+      const __m256i packed = _mm256_loadu_si256(out);  // per lane: tsdf_q | count << 16
+      const __m256 t = _mm256_mul_ps(
+          _mm256_cvtepi32_ps(_mm256_srai_epi32(_mm256_slli_epi32(packed, 16), 16)), tsdf_step);
+      const __m256 w = _mm256_cvtepi32_ps(_mm256_srli_epi32(packed, 16));
       const __m256 w1 = _mm256_add_ps(w, one);
       const __m256 t_new = _mm256_div_ps(_mm256_add_ps(_mm256_mul_ps(t, w), tsdf), w1);
       const __m256 w_new = _mm256_min_ps(w1, max_weight);
-      const __m256 t_out = _mm256_blendv_ps(t, t_new, mask);
-      const __m256 w_out = _mm256_blendv_ps(w, w_new, mask);
-      _mm256_storeu_ps(out, _mm256_unpacklo_ps(t_out, w_out));
-      _mm256_storeu_ps(out + 8, _mm256_unpackhi_ps(t_out, w_out));
+      // |t_new| <= 1 (an average of values in [-1, 1]), so no clamp: Voxel::store's is a no-op.
+      const __m256i t_q = _mm256_and_si256(_mm256_cvtps_epi32(_mm256_mul_ps(t_new, tsdf_scale)), low16);
+      const __m256i updated =
+          _mm256_or_si256(t_q, _mm256_slli_epi32(_mm256_cvttps_epi32(w_new), 16));
+      _mm256_storeu_si256(out, _mm256_blendv_epi8(packed, updated, _mm256_castps_si256(mask)));
     }
   }
 }
@@ -241,7 +241,8 @@ TsdfVolume::TsdfVolume(const FusionConfig& config)
                       std::to_string(config.voxel_size_m));
   if (!(config.truncation_m >= config.voxel_size_m) || !std::isfinite(config.truncation_m))
     throw usage_error("fusion.truncation_m must be at least fusion.voxel_size_m");
-  if (!(config.max_weight >= 1.0)) throw usage_error("fusion.max_weight must be at least 1");
+  if (!(config.max_weight >= 1.0 && config.max_weight <= Voxel::kMaxWeight))
+    throw usage_error("fusion.max_weight must be between 1 and 65535");
   if (config.max_blocks < 1) throw usage_error("fusion.max_blocks must be positive");
 }
 
@@ -451,10 +452,7 @@ void TsdfVolume::update_block(int index, const Image<float>& depth_m, const Intr
         const float sdf = d - p.z();
         if (sdf < -truncation_) continue;
         const float tsdf = std::min(1.0f, sdf * inv_trunc);
-        Voxel& voxel = blk.voxels[voxel_index(x, y, z)];
-        const float w = voxel.weight;
-        voxel.tsdf = (voxel.tsdf * w + tsdf) / (w + 1.0f);
-        voxel.weight = std::min(w + 1.0f, max_weight_);
+        blk.voxels[voxel_index(x, y, z)].add_observation(tsdf, max_weight_);
       }
     }
   }

@@ -28,8 +28,8 @@ VolumeView volume_view(const TsdfVolume& volume, const FusionConfig* config) {
     brick.origin = volume.block_coord(index) * kBlockSize;
     const VoxelBlock& block = volume.block(index);
     for (int v = 0; v < kBlockVoxels; ++v) {  // both layouts are x + 8 (y + 8 z)
-      brick.sdf_m[v] = block.voxels[v].tsdf * truncation;
-      brick.weight[v] = block.voxels[v].weight;
+      brick.sdf_m[v] = block.voxels[v].tsdf() * truncation;
+      brick.weight[v] = block.voxels[v].weight();
     }
   };
   return view;
@@ -54,10 +54,8 @@ void load_volume(const VolumeData& data, TsdfVolume& volume) {
           "volume of " + std::to_string(data.bricks.size()) +
           " bricks exceeds fusion.max_blocks = " + std::to_string(volume.max_blocks()));
     VoxelBlock& block = volume.block(index);
-    for (int v = 0; v < kBlockVoxels; ++v) {
-      block.voxels[v].tsdf = brick.sdf_m[v] / truncation;
-      block.voxels[v].weight = brick.weight[v];
-    }
+    for (int v = 0; v < kBlockVoxels; ++v)
+      block.voxels[v].store(brick.sdf_m[v] / truncation, brick.weight[v]);
   }
 }
 

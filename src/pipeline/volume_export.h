@@ -24,8 +24,8 @@ VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume,
                            const FusionConfig* config = nullptr);
 
 /// Replaces the content of `volume` by `data` (read_volume_vdb()): one block per brick, voxel
-/// tsdf = sdf_m / truncation of `volume` (equal to the written value up to one float rounding),
-/// weight as read. Throws usage_error when the voxel sizes differ by more than 1e-6 relative or
+/// tsdf = sdf_m / truncation of `volume` stored in the voxel's fixed point (Voxel::store: equal
+/// to the written voxel when the truncations agree), weight as read (truncated to an integer). Throws usage_error when the voxel sizes differ by more than 1e-6 relative or
 /// the capacity (fusion.max_blocks) is too small.
 void load_volume(const VolumeData& data, TsdfVolume& volume);
 

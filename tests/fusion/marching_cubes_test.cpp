@@ -45,8 +45,7 @@ void write_sphere(TsdfVolume& volume, bool reverse = false) {
         for (int x = 0; x < kBlockSize; ++x) {
           const Eigen::Vector3d p = (b * kBlockSize + Eigen::Vector3i(x, y, z)).cast<double>() * vs;
           const double sd = (p - kCentre).norm() - kRadius;
-          volume.block(i).voxels[voxel_index(x, y, z)] = {
-              static_cast<float>(std::clamp(sd / trunc, -1.0, 1.0)), 5.0f};
+          volume.block(i).voxels[voxel_index(x, y, z)].store(static_cast<float>(sd / trunc), 5.0f);
         }
   }
 }

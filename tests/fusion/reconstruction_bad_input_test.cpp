@@ -169,16 +169,12 @@ TEST(ReconstructionBadInput, AbsurdDepthsNeitherCrashNorPoisonPoseOrVolume) {
     if (i >= 12 && i < 15) continue;
     EXPECT_LT(pose_error_m(r, i), kRecoveredMaxErrorM) << i;
   }
-  // The volume holds only finite values. The 60 m depths are fused where they lie (range clipping
-  // is preprocessing's job, checked through the pipeline); 1e30 and inf allocate nothing.
+  // The 60 m depths are fused where they lie (range clipping is preprocessing's job, checked
+  // through the pipeline); 1e30 and inf allocate nothing. (The fixed-point voxels cannot hold a
+  // non-finite value; the mesh below checks what is made of them.)
   const TsdfVolume& volume = rec.volume();
-  for (int b = 0; b < volume.block_count(); ++b) {
+  for (int b = 0; b < volume.block_count(); ++b)
     ASSERT_LT(volume.block_coord(b).cwiseAbs().maxCoeff() * volume.block_size_m(), 61.0f);
-    for (const Voxel& v : volume.block(b).voxels) {
-      ASSERT_TRUE(std::isfinite(v.tsdf));
-      ASSERT_TRUE(std::isfinite(v.weight));
-    }
-  }
   const TriangleMesh mesh = rec.extract_mesh();
   EXPECT_GT(mesh.faces.size(), 1000u);
   for (const Eigen::Vector3f& p : mesh.vertices) ASSERT_TRUE(p.allFinite());

@@ -37,10 +37,52 @@ void for_each_observed(const TsdfVolume& volume, F f) {
       for (int y = 0; y < kBlockSize; ++y)
         for (int x = 0; x < kBlockSize; ++x) {
           const Voxel& v = volume.block(i).voxels[voxel_index(x, y, z)];
-          if (v.weight <= 0) continue;
+          if (v.count == 0) continue;
           f(v, (base + Eigen::Vector3i(x, y, z)).cast<double>() * volume.voxel_size_m());
         }
   }
+}
+
+TEST(Voxel, FixedPointStoreRoundsClampsAndRejectsNaN) {
+  Voxel v;
+  EXPECT_EQ(v.tsdf(), 1.0f);  // unobserved voxels read as free space
+  EXPECT_EQ(v.count, 0);
+  v.store(0.5f, 3.0f);
+  EXPECT_EQ(v.tsdf_q, 16384);  // 0.5 * 32767 = 16383.5: to nearest even
+  EXPECT_EQ(v.weight(), 3.0f);
+  v.store(-0.25f, 2.9f);
+  EXPECT_EQ(v.tsdf_q, -8192);  // -8191.75
+  EXPECT_EQ(v.count, 2);       // the count truncates
+  v.store(-7.0f, 1e9f);
+  EXPECT_EQ(v.tsdf_q, -32767);
+  EXPECT_EQ(v.count, 65535);
+  v.store(std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::quiet_NaN());
+  EXPECT_EQ(v.tsdf_q, 32767);  // NaN: free and unobserved
+  EXPECT_EQ(v.count, 0);
+  v.store(0.1f, -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(v.count, 0);
+  // Every fixed-point value survives tsdf() -> store() (the volume.vdb round trip).
+  for (int q = -32767; q <= 32767; ++q) {
+    Voxel a;
+    a.tsdf_q = static_cast<std::int16_t>(q);
+    Voxel b;
+    b.store(a.tsdf(), 1.0f);
+    ASSERT_EQ(b.tsdf_q, q);
+  }
+}
+
+TEST(Voxel, RunningAverageOfObservations) {
+  // Observations 0.6, 0.0, -0.3 average to 0.1; each step within half a fixed-point step of the
+  // exact running mean, the count stopping at the cap.
+  Voxel v;
+  v.add_observation(0.6f, 2.0f);
+  EXPECT_EQ(v.tsdf_q, std::lrint(0.6 * 32767));
+  v.add_observation(0.0f, 2.0f);
+  EXPECT_NEAR(v.tsdf(), 0.3f, 1.0f / 32767);
+  EXPECT_EQ(v.count, 2);
+  v.add_observation(-0.3f, 2.0f);  // capped: (0.3 * 2 - 0.3) / 3, the count stays 2
+  EXPECT_NEAR(v.tsdf(), 0.1f, 1.0f / 32767);
+  EXPECT_EQ(v.count, 2);
 }
 
 TEST(TsdfVolume, FrontalPlaneGivesExactSignedDistance) {
@@ -55,7 +97,7 @@ TEST(TsdfVolume, FrontalPlaneGivesExactSignedDistance) {
   int checked = 0;
   for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
     const double expected = std::min(1.0, (1.5 - p.z()) / trunc);
-    EXPECT_NEAR(v.tsdf, expected, 1e-4) << p.transpose();
+    EXPECT_NEAR(v.tsdf(), expected, 1e-4) << p.transpose();
     EXPECT_LE(p.z(), 1.5 + trunc + 1e-6);  // nothing observed behind the band
     ++checked;
   });
@@ -102,7 +144,7 @@ TEST(TsdfVolume, SphereSignedDistanceWithinAVoxel) {
     // Near the surface, on the cap facing the camera (within 30 degrees of the view ray).
     const Eigen::Vector3d n = (p - centre).normalized();
     if (std::abs(sd) > 0.5 * trunc || n.dot(-p.normalized()) < std::cos(M_PI / 6)) return;
-    EXPECT_NEAR(v.tsdf * trunc, sd, volume.voxel_size_m()) << p.transpose();
+    EXPECT_NEAR(v.tsdf() * trunc, sd, volume.voxel_size_m()) << p.transpose();
     ++checked;
   });
   EXPECT_GT(checked, 1000);
@@ -118,8 +160,8 @@ TEST(TsdfVolume, WeightsAreCappedAndAveragesStay) {
   float max_weight = 0;
   const double trunc = volume.truncation_m();
   for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
-    max_weight = std::max(max_weight, v.weight);
-    EXPECT_NEAR(v.tsdf, std::min(1.0, (1.2 - p.z()) / trunc), 1e-4);
+    max_weight = std::max(max_weight, v.weight());
+    EXPECT_NEAR(v.tsdf(), std::min(1.0, (1.2 - p.z()) / trunc), 1e-4);
   });
   EXPECT_EQ(max_weight, 3.0f);
 }
@@ -151,8 +193,8 @@ TEST(TsdfVolume, FastParallelIntegrationMatchesReference) {
       const Voxel& a = fast.block(i).voxels[j];
       const Voxel& b = reference.block(i).voxels[j];
       ++voxels;
-      if (a.weight != b.weight || std::abs(a.tsdf - b.tsdf) > 2e-4f) ++different;
-      if (a.weight != b.weight || a.tsdf != b.tsdf) ++not_exact;
+      if (a.count != b.count || std::abs(a.tsdf() - b.tsdf()) > 2e-4f) ++different;
+      if (a.count != b.count || a.tsdf_q != b.tsdf_q) ++not_exact;
     }
   }
   std::printf("fast vs reference integration: %lld of %lld voxels beyond 2e-4, %lld not exact\n",
@@ -185,7 +227,7 @@ TEST(TsdfVolume, SimdIntegrationEqualsPortableBitForBit) {
   for (int i = 0; i < simd.block_count(); ++i) {
     ASSERT_EQ(simd.block_coord(i), portable.block_coord(i));
     ASSERT_EQ(0, std::memcmp(&simd.block(i), &portable.block(i), sizeof(VoxelBlock))) << i;
-    for (const Voxel& v : simd.block(i).voxels) observed += v.weight > 0;
+    for (const Voxel& v : simd.block(i).voxels) observed += v.count > 0;
   }
   EXPECT_GT(observed, 100000);
 }
@@ -251,7 +293,10 @@ TEST(TsdfVolume, BadInputNeverCrashes) {
 
 TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
   TsdfVolume volume(default_fusion());
-  // Write a linear field tsdf = 0.01 * x into 2x2x2 blocks around the origin.
+  // Write a linear field tsdf = kSlope * x, exact in the voxels' fixed point (320 steps per
+  // voxel), into 2x2x2 blocks around the origin.
+  constexpr int kSteps = 320;
+  const float kSlope = kSteps * Voxel::kTsdfStep;
   for (int bz = -1; bz <= 0; ++bz)
     for (int by = -1; by <= 0; ++by)
       for (int bx = -1; bx <= 0; ++bx) {
@@ -259,19 +304,22 @@ TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
         ASSERT_GE(i, 0);
         for (int z = 0; z < 8; ++z)
           for (int y = 0; y < 8; ++y)
-            for (int x = 0; x < 8; ++x)
-              volume.block(i).voxels[voxel_index(x, y, z)] = {0.01f * (bx * 8 + x), 1.0f};
+            for (int x = 0; x < 8; ++x) {
+              Voxel& v = volume.block(i).voxels[voxel_index(x, y, z)];
+              v.tsdf_q = static_cast<std::int16_t>(kSteps * (bx * 8 + x));
+              v.count = 1;
+            }
       }
   TsdfSampler sampler(volume);
   float f = 0;
   ASSERT_TRUE(sampler.trilinear(Eigen::Vector3f(-0.25f, 0.5f, -0.5f), f));
-  EXPECT_NEAR(f, -0.0025f, 1e-6f);
+  EXPECT_NEAR(f, -0.25f * kSlope, 1e-6f);
   ASSERT_TRUE(sampler.trilinear(Eigen::Vector3f(3.5f, 3.5f, 3.5f), f));
-  EXPECT_NEAR(f, 0.035f, 1e-6f);
+  EXPECT_NEAR(f, 3.5f * kSlope, 1e-6f);
   EXPECT_FALSE(sampler.trilinear(Eigen::Vector3f(7.5f, 0.0f, 0.0f), f));  // needs block x = 1
   Eigen::Vector3f grad;
   ASSERT_TRUE(sampler.gradient(Eigen::Vector3f(-1.0f, 0.2f, -0.3f), grad));
-  EXPECT_NEAR(grad.x(), 0.01f, 1e-6f);
+  EXPECT_NEAR(grad.x(), kSlope, 1e-6f);
   EXPECT_NEAR(grad.y(), 0.0f, 1e-6f);
   // Nearest-voxel central differences: inside a block (one lookup, direct offsets) and at a
   // block border (neighbours in other blocks) give the same exact slope; a missing neighbour
@@ -280,7 +328,7 @@ TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
        {Eigen::Vector3f(-4.2f, -3.9f, -5.1f), Eigen::Vector3f(-0.4f, -0.3f, -1.0f),
         Eigen::Vector3f(-1.0f, -7.2f, -4.0f)}) {
     ASSERT_TRUE(sampler.nearest_gradient(g, grad)) << g.transpose();
-    EXPECT_NEAR(grad.x(), 0.01f, 1e-6f) << g.transpose();
+    EXPECT_NEAR(grad.x(), kSlope, 1e-6f) << g.transpose();
     EXPECT_EQ(grad.y(), 0.0f);
     EXPECT_EQ(grad.z(), 0.0f);
   }

@@ -73,10 +73,10 @@ TEST(VolumeExport, FusedPlaneHasExactVoxelsInOpenVdb) {
           const Voxel& v = volume.block(b).voxels[voxel_index(x, y, z)];
           const Eigen::Vector3i g = base + Eigen::Vector3i(x, y, z);
           const openvdb::Coord c(g.x(), g.y(), g.z());
-          ASSERT_EQ(t.isValueOn(c), v.weight > 0.0f) << c;
-          if (v.weight <= 0.0f) continue;
+          ASSERT_EQ(t.isValueOn(c), v.count > 0) << c;
+          if (v.count == 0) continue;
           ++observed;
-          EXPECT_EQ(t.getValue(c), v.tsdf * truncation) << c;
+          EXPECT_EQ(t.getValue(c), v.tsdf() * truncation) << c;
           EXPECT_EQ(w.getValue(c), 1.0f) << c;  // one frame
           // The analytic projective distance of a frontal plane: depth - z, capped at +truncation.
           const openvdb::Vec3d p = tsdf->indexToWorld(c);

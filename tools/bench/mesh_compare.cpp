@@ -94,10 +94,10 @@ std::pair<openvdb::FloatGrid::Ptr, openvdb::FloatGrid::Ptr> to_grids(const TsdfV
       for (int y = 0; y < kBlockSize; ++y)
         for (int x = 0; x < kBlockSize; ++x) {
           const Voxel& v = block.voxels[voxel_index(x, y, z)];
-          if (!(v.weight > 0.0f)) continue;
+          if (v.count == 0) continue;
           const auto offset = Leaf::coordToOffset(openvdb::Coord(x, y, z));
-          t->setValueOn(offset, v.tsdf * truncation);
-          w->setValueOn(offset, v.weight);
+          t->setValueOn(offset, v.tsdf() * truncation);
+          w->setValueOn(offset, v.weight());
         }
     tsdf->tree().addLeaf(t.release());
     weight->tree().addLeaf(w.release());
