@@ -195,6 +195,68 @@ __attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b,
 }
 #endif
 
+/// What the band allocation needs per pixel ray, in block-grid units (cell floor(q) is block q):
+/// the ray of pixel (x, y) at depth z is z * (row_dir + rx(x) * x_dir) + origin.
+struct BandRays {
+  Eigen::Vector3f row_dir, x_dir, origin;
+  float cx, fx_inv, trunc;
+};
+
+/// The band segments of eight pixels of a row: ends a = ray(z0), b = ray(z1) and their cells.
+struct BandSegments8 {
+  float a[3][8], b[3][8];
+  int ia[3][8], ib[3][8];
+};
+
+#if AOSCAN_TSDF_X86
+/// floor() of eight floats within the int range, as floor_to_int() computes it.
+__attribute__((target("avx2"))) inline __m256i floor8(__m256 v) {
+  const __m256i i = _mm256_cvttps_epi32(v);
+  const __m256 above = _mm256_cmp_ps(_mm256_cvtepi32_ps(i), v, _CMP_GT_OQ);
+  return _mm256_add_epi32(i, _mm256_castps_si256(above));  // true lanes are -1
+}
+
+/// The band segment set-up of pixels x0 .. x0 + 7 of one row with AVX2: the float operations
+/// of the per-pixel code in the same order (no FMA), so the same ends and cells. Returns the
+/// lanes with a valid depth (bit i = pixel x0 + i) in the low byte and, among them, those whose
+/// ends are inside the packable block range in the high byte.
+__attribute__((target("avx2"))) int band_segments_avx2(const float* depth, int x0,
+                                                        const BandRays& r, BandSegments8& out) {
+  const __m256 d = _mm256_loadu_ps(depth + x0);
+  const __m256 valid = _mm256_and_ps(_mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                     _mm256_cmp_ps(d, _mm256_set1_ps(1e4f), _CMP_LT_OQ));
+  const int valid_bits = _mm256_movemask_ps(valid);
+  if (valid_bits == 0) return 0;
+  const __m256 xs = _mm256_add_ps(_mm256_set1_ps(static_cast<float>(x0)),
+                                  _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
+  const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(xs, _mm256_set1_ps(r.cx)), _mm256_set1_ps(r.fx_inv));
+  const __m256 trunc = _mm256_set1_ps(r.trunc);
+  const __m256 z0 = _mm256_max_ps(_mm256_sub_ps(d, trunc), _mm256_mul_ps(_mm256_set1_ps(0.5f), d));
+  const __m256 z1 = _mm256_add_ps(d, trunc);
+  const __m256 limit = _mm256_set1_ps(static_cast<float>(TsdfVolume::kMaxBlockCoord));
+  const __m256 neg_limit = _mm256_set1_ps(-static_cast<float>(TsdfVolume::kMaxBlockCoord));
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  __m256 inside = valid;
+  for (int c = 0; c < 3; ++c) {
+    const __m256 dir = _mm256_add_ps(_mm256_set1_ps(r.row_dir[c]),
+                                     _mm256_mul_ps(rx, _mm256_set1_ps(r.x_dir[c])));
+    const __m256 origin = _mm256_set1_ps(r.origin[c]);
+    const __m256 a = _mm256_add_ps(_mm256_mul_ps(dir, z0), origin);
+    const __m256 b = _mm256_add_ps(_mm256_mul_ps(dir, z1), origin);
+    inside = _mm256_and_ps(inside, _mm256_cmp_ps(_mm256_and_ps(a, abs_mask), limit, _CMP_LT_OQ));
+    inside = _mm256_and_ps(inside, _mm256_cmp_ps(_mm256_and_ps(b, abs_mask), limit, _CMP_LT_OQ));
+    _mm256_storeu_ps(out.a[c], a);
+    _mm256_storeu_ps(out.b[c], b);
+    // Lanes outside the range are never read; clamp them so the conversion stays defined.
+    const __m256i ia = floor8(_mm256_min_ps(_mm256_max_ps(a, neg_limit), limit));
+    const __m256i ib = floor8(_mm256_min_ps(_mm256_max_ps(b, neg_limit), limit));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ia[c]), ia);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ib[c]), ib);
+  }
+  return valid_bits | (_mm256_movemask_ps(inside) << 8);
+}
+#endif
+
 }  // namespace
 
 void BlockHashMap::insert(std::uint64_t key, int value) {
@@ -307,7 +369,7 @@ std::size_t TsdfVolume::memory_bytes() const {
 }
 
 IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                                         const Pose& T_world_camera, bool fast) {
+                                         const Pose& T_world_camera, bool fast, bool simd) {
   IntegrateStats stats;
   visible_.clear();
   if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
@@ -347,48 +409,73 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
     Eigen::Vector3i last_a = Eigen::Vector3i::Zero(), last_b = Eigen::Vector3i::Zero();
     int last_rank[3] = {0, 0, 0};
     bool have_last = false;
+    // The blocks of one pixel's band segment a-b (block-grid units, ends within the packable
+    // range, ia and ib their cells).
+    auto segment = [&](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                       const Eigen::Vector3i& ia, const Eigen::Vector3i& ib) {
+      if (!fast) {
+        traverse_segment(a, b, ia, ib, cache, keys);
+        return;
+      }
+      // Fast path, the same blocks: a segment at most one cell from its first cell per axis
+      // crosses the cells its crossing order (ranks) gives; when the end cells and the order
+      // equal the previous such pixel's, every key was just emitted.
+      if ((ib - ia).cwiseAbs().maxCoeff() > 1) {
+        traverse_segment(a, b, ia, ib, cache, keys);
+        have_last = false;
+        return;
+      }
+      int rank[3];
+      short_path_ranks(a, b, ia, ib, rank);
+      if (have_last && ia == last_a && ib == last_b && rank[0] == last_rank[0] &&
+          rank[1] == last_rank[1] && rank[2] == last_rank[2])
+        return;
+      emit_key(ia, cache, keys);
+      emit_short_path(ia, ib, rank,
+                      [&](const Eigen::Vector3i& cell) { emit_key(cell, cache, keys); });
+      last_a = ia;
+      last_b = ib;
+      std::copy(rank, rank + 3, last_rank);
+      have_last = true;
+    };
     for (int y = c * kRowsPerChunk; y < y_end; ++y) {
       const float* row = depth_m.row(y);
       const float ry = (static_cast<float>(y) - cy) * fy_inv;
       // The pixel's ray direction in block-grid units per metre of depth: row_dir + rx * x_dir.
-      const Eigen::Vector3f row_dir = (R.col(1) * ry + R.col(2)) * to_grid;
-      for (int x = 0; x < depth_m.width(); ++x) {
+      const BandRays rays_of_row{(R.col(1) * ry + R.col(2)) * to_grid, x_dir, origin, cx, fx_inv,
+                                 trunc};
+      int x = 0;
+#if AOSCAN_TSDF_X86
+      if (simd) {
+        BandSegments8 batch;
+        for (; x + 8 <= depth_m.width(); x += 8) {
+          const int bits = band_segments_avx2(row, x, rays_of_row, batch);
+          rays += __builtin_popcount(bits & 0xFF);
+          for (int inside = bits >> 8; inside != 0; inside &= inside - 1) {
+            const int l = __builtin_ctz(inside);
+            segment({batch.a[0][l], batch.a[1][l], batch.a[2][l]},
+                    {batch.b[0][l], batch.b[1][l], batch.b[2][l]},
+                    {batch.ia[0][l], batch.ia[1][l], batch.ia[2][l]},
+                    {batch.ib[0][l], batch.ib[1][l], batch.ib[2][l]});
+          }
+        }
+      }
+#else
+      (void)simd;
+#endif
+      for (; x < depth_m.width(); ++x) {
         const float d = row[x];
         if (!valid_depth(d)) continue;
         ++rays;
         const float rx = (static_cast<float>(x) - cx) * fx_inv;
-        const Eigen::Vector3f dir = row_dir + rx * x_dir;
+        const Eigen::Vector3f dir = rays_of_row.row_dir + rx * x_dir;
         const float z0 = std::max(d - trunc, 0.5f * d);
         const float z1 = d + trunc;
         const Eigen::Vector3f a = dir * z0 + origin;
         const Eigen::Vector3f b = dir * z1 + origin;
         constexpr float kLimit = static_cast<float>(kMaxBlockCoord);
         if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
-        const Eigen::Vector3i ia = floor_cell(a), ib = floor_cell(b);
-        if (!fast) {
-          traverse_segment(a, b, ia, ib, cache, keys);
-          continue;
-        }
-        // Fast path, the same blocks: a segment at most one cell from its first cell per axis
-        // crosses the cells its crossing order (ranks) gives; when the end cells and the order
-        // equal the previous such pixel's, every key was just emitted.
-        if ((ib - ia).cwiseAbs().maxCoeff() > 1) {
-          traverse_segment(a, b, ia, ib, cache, keys);
-          have_last = false;
-          continue;
-        }
-        int rank[3];
-        short_path_ranks(a, b, ia, ib, rank);
-        if (have_last && ia == last_a && ib == last_b && rank[0] == last_rank[0] &&
-            rank[1] == last_rank[1] && rank[2] == last_rank[2])
-          continue;
-        emit_key(ia, cache, keys);
-        emit_short_path(ia, ib, rank,
-                        [&](const Eigen::Vector3i& cell) { emit_key(cell, cache, keys); });
-        last_a = ia;
-        last_b = ib;
-        std::copy(rank, rank + 3, last_rank);
-        have_last = true;
+        segment(a, b, floor_cell(a), floor_cell(b));
       }
     }
     chunk_rays_[c] = rays;
@@ -512,7 +599,7 @@ IntegrateStats TsdfVolume::integrate_portable(const Image<float>& depth_m,
 
 IntegrateStats TsdfVolume::integrate_fast(const Image<float>& depth_m, const Intrinsics& intrinsics,
                                           const Pose& T_world_camera, bool simd) {
-  IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, true);
+  IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, true, simd);
   if (stats.skipped) return stats;
   const Pose T_camera_world = T_world_camera.inverse();
   const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
@@ -528,7 +615,7 @@ IntegrateStats TsdfVolume::integrate_fast(const Image<float>& depth_m, const Int
 IntegrateStats TsdfVolume::integrate_reference(const Image<float>& depth_m,
                                                const Intrinsics& intrinsics,
                                                const Pose& T_world_camera) {
-  IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, false);
+  IntegrateStats stats = allocate_band(depth_m, intrinsics, T_world_camera, false, false);
   if (stats.skipped) return stats;
   const Pose T_camera_world = T_world_camera.inverse();
   const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();

@@ -206,9 +206,10 @@ class TsdfVolume {
 
   /// Allocation pass of integrate() and integrate_reference(): fills visible_. `fast` runs the
   /// chunks in parallel and skips the traversal of segments whose cells are known (the same
-  /// blocks in the same order as the plain per-pixel traversal).
+  /// blocks in the same order as the plain per-pixel traversal); `simd` (with `fast`, the
+  /// caller checked the CPU) sets up eight pixels' segments per AVX2 vector, the same floats.
   IntegrateStats allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                               const Pose& T_world_camera, bool fast);
+                               const Pose& T_world_camera, bool fast, bool simd);
   /// integrate() with the AVX2 voxel update (`simd`) or the portable one.
   IntegrateStats integrate_fast(const Image<float>& depth_m, const Intrinsics& intrinsics,
                                 const Pose& T_world_camera, bool simd);

@@ -232,6 +232,33 @@ TEST(TsdfVolume, SimdIntegrationEqualsPortableBitForBit) {
   EXPECT_GT(observed, 100000);
 }
 
+TEST(TsdfVolume, SimdEqualsPortableOnARowWidthThatIsNoMultipleOfEight) {
+  // The band allocation sets up eight pixels per AVX2 vector and the rest of a row one by one;
+  // a 637-pixel row has a 5-pixel tail, and a dropout pattern leaves lanes without depth.
+  Intrinsics k;
+  k.width = 637;
+  k.height = 203;
+  k.cx = 300.0;
+  k.cy = 101.0;
+  const Pose pose = test::look_at({0.4, -0.2, 0.2}, {-0.3, 0.6, 2.6});
+  Image<float> depth;
+  test::render(test::corner_scene(), k, pose, depth, nullptr, 0.004, 5);
+  for (int y = 0; y < depth.height(); ++y)
+    for (int x = 0; x < depth.width(); ++x)
+      if ((x * 7 + y * 3) % 11 == 0) depth(x, y) = 0.0f;
+  TsdfVolume simd(default_fusion()), portable(default_fusion());
+  const IntegrateStats a = simd.integrate(depth, k, pose);
+  const IntegrateStats b = portable.integrate_portable(depth, k, pose);
+  EXPECT_EQ(a.rays, b.rays);
+  EXPECT_GT(a.rays, 100000);
+  EXPECT_EQ(a.blocks_allocated, b.blocks_allocated);
+  ASSERT_EQ(simd.block_count(), portable.block_count());
+  for (int i = 0; i < simd.block_count(); ++i) {
+    ASSERT_EQ(simd.block_coord(i), portable.block_coord(i));
+    ASSERT_EQ(0, std::memcmp(&simd.block(i), &portable.block(i), sizeof(VoxelBlock))) << i;
+  }
+}
+
 TEST(TsdfVolume, SameVolumeForOneAndTwoThreads) {
   const test::Scene scene = test::corner_scene();
   const Pose pose = test::look_at({0.4, -0.2, 0.2}, {-0.3, 0.6, 2.6});
