@@ -90,7 +90,9 @@ Status Processing::mvao(FrameWork& frame) {
   if (frame.model_reset) grid_.clear();  // the old grid lies in the old model's world frame
   frame.view_products =
       view_products_.load() &&
-      frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0;
+      frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0 &&
+      (!view_demand_ || view_demand_(view_products_built_));
+  if (frame.view_products) ++view_products_built_;
   Status status = Status::ok();
   // The view image reads the cells of the pixels just integrated through their slots when the
   // grid was fed the raycast (ao.input=raycast), the image's own maps.

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,6 +45,10 @@ class Processing {
     view_products_every_.store(every < 1 ? 1 : every);
     view_products_.store(enabled);
   }
+  /// With a demand set (before the chain starts), the mvao stage builds the view products of a
+  /// frame only when `ready(products built so far)` says the consumer has caught up: the window
+  /// is shown as often as it can draw, and no product is made that it would never show.
+  void set_view_demand(std::function<bool(std::uint64_t)> ready) { view_demand_ = std::move(ready); }
 
   /// Models started by request_reset() so far, and on-demand writes done (thread-safe).
   std::size_t model_resets() const { return model_resets_.load(); }
@@ -91,6 +96,8 @@ class Processing {
   std::atomic<bool> write_requested_{false};
   std::atomic<bool> view_products_{false};
   std::atomic<int> view_products_every_{1};
+  std::function<bool(std::uint64_t)> view_demand_;
+  std::uint64_t view_products_built_ = 0;  ///< by the mvao stage
   std::atomic<std::size_t> model_resets_{0};
   std::atomic<std::size_t> outputs_written_{0};
 };

@@ -130,10 +130,6 @@ class CommandPump {
 /// Redraws per second of the live view (the camera delivers 30 frames a second), and the nice
 /// increment of its thread.
 constexpr double kWindowRedrawHz = 30.0;
-/// With the window alone (no snapshots), view products are built for every n-th frame: the MVAO
-/// image (a grid lookup per raycast pixel) and the view frame cost about 20 ms of CPU together,
-/// which on two cores fusion needs (window replay at 71 % of headless fps with every frame).
-constexpr int kWindowProductsEvery = 2;
 constexpr int kWindowNice = 10;
 
 /// The live view on its own thread; stopped and joined by stop() or the destructor.
@@ -156,10 +152,7 @@ class WindowThread {
       const int own_nice = getpriority(PRIO_PROCESS, tid);
       if (errno != 0 || setpriority(PRIO_PROCESS, tid, std::min(own_nice + kWindowNice, 19)) != 0)
         spdlog::debug("live view: could not lower the window thread's priority");
-      const ViewFeed feed = [&view] {
-        auto latest = view.mailbox().latest();
-        return latest ? latest->first : nullptr;
-      };
+      const ViewFeed feed = [&view] { return view.take_latest(); };
       const LiveViewResult result = run_live_view(options, feed, commands, stop_);
       using Outcome = LiveViewResult::Outcome;
       if (result.outcome != Outcome::kUnavailable) shown_.store(true);
@@ -298,8 +291,14 @@ SessionResult run_session(Source& source, const SessionOptions& options,
       vopts.snapshots = snapshots;
     }
     view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
-    processing.set_view_products(true, options.snapshot_dir.empty() ? kWindowProductsEvery : 1);
+    processing.set_view_products(true);
     ViewStage* stage = view.get();
+    // With the window alone, view products (the MVAO image, a grid lookup per raycast pixel, and
+    // the view frame) are built only once the window has taken the last one: it draws on CPU
+    // time fusion leaves, and products it would never show would take that time from fusion.
+    // Snapshots need every frame's.
+    if (options.snapshot_dir.empty())
+      processing.set_view_demand([stage](std::uint64_t built) { return stage->caught_up(built); });
     stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
   }
 

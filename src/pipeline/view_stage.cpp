@@ -70,8 +70,16 @@ void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
   view.surface = surface_;
 }
 
+std::shared_ptr<const ViewFrame> ViewStage::take_latest() {
+  auto latest = mailbox_.latest();
+  if (!latest) return nullptr;
+  taken_version_.store(latest->second);
+  return latest->first;
+}
+
 Status ViewStage::process(FrameWork& frame) {
   ++frames_seen_;
+  if (frame.view_products) ++products_arrived_;
   if (!active() || !frame.view_products) return Status::ok();
 
   // The orbit cloud follows the model: a reset starts it over.

@@ -53,6 +53,14 @@ class ViewStage {
 
   /// The newest ViewFrame (the live view's feed).
   Mailbox<std::shared_ptr<const ViewFrame>>& mailbox() { return mailbox_; }
+  /// The newest ViewFrame for the window, remembered as shown (thread-safe); null before the first.
+  std::shared_ptr<const ViewFrame> take_latest();
+  /// True when every frame with view products built so far (`built`, counted by their producer)
+  /// has arrived here and the window has taken the newest published one (thread-safe): the
+  /// producer's cue to build the next.
+  bool caught_up(std::uint64_t built) const {
+    return products_arrived_.load() == built && taken_version_.load() >= mailbox_.version();
+  }
   /// Stops (false) or resumes building frames for the window, e.g. when none could be opened.
   void set_publish(bool publish) { publish_.store(publish); }
 
@@ -76,6 +84,8 @@ class ViewStage {
   std::vector<double> smoothed_ms_;
   std::atomic<bool> publish_{false};
   std::atomic<std::size_t> frames_seen_{0};
+  std::atomic<std::uint64_t> products_arrived_{0};  ///< frames with view products seen
+  std::atomic<std::uint64_t> taken_version_{0};     ///< mailbox version take_latest() returned
   std::atomic<std::size_t> snapshot_files_{0};
 };
 

@@ -55,6 +55,14 @@ double fraction_unlike_corner(const fs::path& path) {
   return static_cast<double>(unlike) / static_cast<double>(pixels);
 }
 
+/// A view stage of a one-stage chain that publishes for a window.
+ViewStageOptions window_options() {
+  ViewStageOptions options;
+  options.stage_names = {"capture", "view"};
+  options.publish = true;
+  return options;
+}
+
 /// Camera-frame maps of a fronto-parallel wall at `depth_m` (every pixel valid).
 PointMaps wall_maps(int width, int height, float depth_m) {
   PointMaps maps;
@@ -213,10 +221,7 @@ TEST(ViewStage, FullResolutionSnapshotsShowTheHalfResolutionModel) {
 }
 
 TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
-  ViewStageOptions options;
-  options.stage_names = {"capture", "view"};
-  options.publish = true;
-  ViewStage view(options);
+  ViewStage view(window_options());
   // The "window" takes the newest frame every 50 ms and holds on to every frame it took.
   std::atomic<bool> done{false};
   std::vector<std::shared_ptr<const ViewFrame>> held;
@@ -254,10 +259,7 @@ TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
 }
 
 TEST(ViewStage, FramesWithoutViewProductsAreNotShown) {
-  ViewStageOptions options;
-  options.stage_names = {"capture", "view"};
-  options.publish = true;
-  ViewStage view(options);
+  ViewStage view(window_options());
   testing::FakeSource source(10);
   PipelineOptions popts;
   std::atomic<bool> stop{false};
@@ -272,6 +274,64 @@ TEST(ViewStage, FramesWithoutViewProductsAreNotShown) {
   EXPECT_EQ(view.frames_seen(), 10u);
   EXPECT_EQ(view.mailbox().version(), 5u);  // frames 0, 2, 4, 6, 8
   EXPECT_EQ(view.mailbox().latest()->first->sequence, 8u);
+}
+
+TEST(ViewStage, CaughtUpOnlyOnceTheWindowTookTheLastProduct) {
+  ViewStage view(window_options());
+  EXPECT_TRUE(view.caught_up(0));  // nothing built yet: build the first
+  FrameWork frame;
+  frame.view_products = true;
+  // One product built (by its producer's count) and not arrived yet: in flight.
+  EXPECT_FALSE(view.caught_up(1));
+  ASSERT_TRUE(view.process(frame).is_ok());
+  EXPECT_FALSE(view.caught_up(1));  // published, not taken by the window
+  ASSERT_NE(view.take_latest(), nullptr);
+  EXPECT_TRUE(view.caught_up(1));
+  // Frames without products count for nothing.
+  FrameWork plain;
+  ASSERT_TRUE(view.process(plain).is_ok());
+  EXPECT_TRUE(view.caught_up(1));
+  EXPECT_EQ(view.mailbox().version(), 1u);
+}
+
+TEST(ViewStage, ADemandDrivenChainBuildsProductsOnlyForTheWindow) {
+  // The mvao stage's rule (Processing::set_view_demand): a frame gets view products when the
+  // view stage says the window caught up. A window that never takes a frame gets one product.
+  ViewStage view(window_options());
+  testing::FakeSource source(30);
+  PipelineOptions popts;
+  std::atomic<bool> stop{false};
+  std::uint64_t built = 0;
+  const auto producer = [&](FrameWork& f) {
+    f.view_products = view.caught_up(built);
+    if (f.view_products) ++built;
+    return Status::ok();
+  };
+  const auto consumer = [&](FrameWork& f) { return view.process(f); };
+  PipelineResult r = run_pipeline(source, {{"mvao", producer}, {"view", consumer}}, popts, stop);
+  ASSERT_TRUE(r.status.is_ok()) << r.status.message();
+  EXPECT_EQ(built, 1u);
+  EXPECT_EQ(view.mailbox().version(), 1u);
+  // A window that takes every frame soon after it is published is offered more (the producer
+  // takes 3 ms a frame, like a stage that has work to do; the window looks every millisecond).
+  std::atomic<bool> done{false};
+  std::thread window([&] {
+    while (!done.load()) {
+      view.take_latest();
+      std::this_thread::sleep_for(1ms);
+    }
+  });
+  testing::FakeSource more(30);
+  const auto slow_producer = [&](FrameWork& f) {
+    std::this_thread::sleep_for(3ms);
+    return producer(f);
+  };
+  r = run_pipeline(more, {{"mvao", slow_producer}, {"view", consumer}}, popts, stop);
+  done.store(true);
+  window.join();
+  ASSERT_TRUE(r.status.is_ok()) << r.status.message();
+  EXPECT_GE(built, 4u);  // of 30 frames (a loaded machine may wake the window late)
+  EXPECT_EQ(view.mailbox().version(), built);  // every product built was published
 }
 
 /// A synthetic source that pushes user commands when it reaches given frames and can wait
