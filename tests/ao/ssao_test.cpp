@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 
 #include "ao/ao_test_util.h"
+#include "fusion/icp.h"
 
 namespace aoscan {
 namespace {
@@ -290,6 +291,50 @@ TEST(Ssao, AlchemyAreaFactorDividesByTheOccludersSlant) {
       EXPECT_NEAR(1.0f - ao_slanted(x, y), (1.0f - ao_plain(x, y)) / 0.9f, 2e-5f) << x << " " << y;
     }
   EXPECT_GT(occluded, 100);
+}
+
+TEST(Ssao, EvaluatedPixelsAndSamplesBothReadTheSmoothedNormal) {
+  // The SSAO normal smoothing acts on the whole normal map: at normal_radius_px = r the AO and
+  // the weights are those of radius 0 on the map smooth_model_normals() gives, so the area
+  // factor of each occluding sample reads the sample's smoothed normal too, not its raycast one.
+  // floor_wall_edge() with each normal tilted by a different angle about the camera's y axis.
+  PointMaps maps = floor_wall_edge();
+  for (int y = 0; y < maps.normals.height(); ++y)
+    for (int x = 0; x < maps.normals.width(); ++x) {
+      const float t = 0.08f * static_cast<float>((x * 7 + y * 3) % 5 - 2);
+      const Eigen::Vector3f n = maps.normals(x, y);
+      maps.normals(x, y) = Eigen::Vector3f(std::cos(t) * n.x() + std::sin(t) * n.z(), n.y(),
+                                           -std::sin(t) * n.x() + std::cos(t) * n.z());
+    }
+  AoConfig config = config_for(AoEstimator::kAlchemy, 1);
+  ASSERT_EQ(config.normal_radius_px, 2);
+  ASSERT_LT(config.area_min_cos, 1.0);
+  PointMaps smoothed;
+  smooth_model_normals_reference(maps, config.normal_radius_px,
+                                 static_cast<float>(config.normal_max_distance_m), smoothed);
+  AoConfig own = config;
+  own.normal_radius_px = 0;
+  for (int stride : {1, 2}) {
+    config.ssao_stride_px = own.ssao_stride_px = stride;
+    Image<float> ao, w, ao_own, w_own, ao_raw, w_raw;
+    compute_ssao(maps, config, 3, ao, w);
+    compute_ssao(smoothed, own, 3, ao_own, w_own);
+    compute_ssao(maps, own, 3, ao_raw, w_raw);
+    float max_diff = 0.0f, raw_diff = 0.0f;
+    for (std::size_t i = 0; i < ao.size(); ++i) {
+      max_diff = std::max(max_diff, std::abs(ao.data()[i] - ao_own.data()[i]));
+      raw_diff = std::max(raw_diff, std::abs(ao.data()[i] - ao_raw.data()[i]));
+    }
+    EXPECT_EQ(max_diff, 0.0f) << "stride " << stride;
+    EXPECT_EQ(w, w_own) << "stride " << stride;
+    EXPECT_GT(raw_diff, 0.01f) << "stride " << stride;  // the smoothing matters here
+    Image<float> ao_ref, w_ref;
+    compute_ssao_reference(maps, config, 3, ao_ref, w_ref);
+    float ref_diff = 0.0f;
+    for (std::size_t i = 0; i < ao.size(); ++i)
+      ref_diff = std::max(ref_diff, std::abs(ao.data()[i] - ao_ref.data()[i]));
+    EXPECT_LE(ref_diff, 1e-5f) << "stride " << stride;
+  }
 }
 
 TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
