@@ -229,7 +229,11 @@ struct AoConfig {
   /// Alchemy, obscurance and heightfield estimators: a sample occludes only by its height above the
   /// tangent plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth
   /// like their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
-  double bias = 0.005;
+  /// 0.0035: with the whole normal map smoothed (normal_radius_px), the tangent planes are flat
+  /// enough for a lower bias than the 0.005 of raw normals: noisy corner r +0.003 to +0.004 (3
+  /// seeds), room +0.000, exact-depth corner +0.005 (0.0025: room -0.002; 0.0065: all lower); see
+  /// BENCHMARKS.md.
+  double bias = 0.0035;
   /// Coverage weight (in the spirit of the paper's border weight w_b, Eq. 12): in mvao mode a
   /// pixel's weight w_d * w_n is multiplied by coverage^coverage_power, coverage = the share of
   /// its SSAO samples that fell inside the image on valid pixels (samples off the image or in

@@ -134,7 +134,7 @@ TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
         }
       ASSERT_GT(near_n, 100);
       ASSERT_GT(far_n, 1000);
-      // The bias (6 mm at this depth) keeps the nearest samples on the wall from occluding.
+      // The bias (4-5 mm at this depth) keeps the nearest samples on the wall from occluding.
       EXPECT_LT(near_sum / near_n, bias > 0.0 ? 0.87 : 0.85) << static_cast<int>(e);
       EXPECT_GT(far_sum / far_n, 0.98) << static_cast<int>(e);
       // Obscurance: a sample on the other plane farther than t_max has rho = 1 and does not count
@@ -194,19 +194,19 @@ TEST(Ssao, CoverageWeightLowersPixelsWhoseDiskLeavesTheImage) {
 }
 
 TEST(Ssao, BiasIgnoresBumpsLowerThanBiasTimesDepth) {
-  // The open wall at 1.2 m with a checkerboard of 4 mm bumps toward the camera (each vertex moved
-  // along its pixel ray): below the default bias of 0.005 * 1.2 m = 6 mm, so the point estimators
+  // The open wall at 1.2 m with a checkerboard of 3 mm bumps toward the camera (each vertex moved
+  // along its pixel ray): below the default bias of 0.0035 * 1.2 m = 4.2 mm, so the point estimators
   // see an open wall; without the bias the bumps occlude the pixels between them.
   PointMaps maps = open_wall();
   for (int y = 0; y < maps.vertices.height(); ++y)
     for (int x = 0; x < maps.vertices.width(); ++x) {
       Eigen::Vector3f& v = maps.vertices(x, y);
-      if (((x / 4) + (y / 4)) % 2 == 1) v *= (v.z() - 0.004f) / v.z();
+      if (((x / 4) + (y / 4)) % 2 == 1) v *= (v.z() - 0.003f) / v.z();
     }
   Image<float> ao, w;
   for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy}) {
     AoConfig config = config_for(e, 1);
-    ASSERT_EQ(config.bias, 0.005);
+    ASSERT_EQ(config.bias, 0.0035);
     compute_ssao(maps, config, 0, ao, w);
     for (int y = 0; y < ao.height(); ++y)
       for (int x = 0; x < ao.width(); ++x) ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
