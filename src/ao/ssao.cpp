@@ -11,7 +11,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 
-#include "fusion/normal_smoothing.h"
+#include "fusion/icp.h"
 
 namespace aoscan {
 namespace {
@@ -64,8 +64,6 @@ struct FrameSetup {
   const PointMaps* maps;
   const SsaoPattern* pattern;
   float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
-  int normal_radius_px;
-  float normal_max_distance2;  ///< normal_max_distance_m squared
   float area_min_cos;
 };
 
@@ -92,14 +90,6 @@ float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::V
 
 // ---------------------------------------------------------------------------------------------
 // Fast path: estimator-specialised loops over precomputed per-class offsets.
-
-/// The SSAO normal of pixel (x, y) with raycast normal n: smoothed_normal() over
-/// s.normal_radius_px pixels, or n itself when the radius is 0.
-inline Eigen::Vector3f ssao_normal(const FrameSetup& s, int x, int y, const Eigen::Vector3f& n) {
-  return s.normal_radius_px > 0
-             ? smoothed_normal(*s.maps, x, y, s.normal_radius_px, s.normal_max_distance2)
-             : n;
-}
 
 /// The vector v = q - p from the centre point p to the surface point q under the screen offset
 /// `offset` (unit disk, scaled by rx, ry pixels) of pixel (x, y), and d2 = |v|^2; false when the
@@ -342,7 +332,7 @@ PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
   const PointMaps& maps = *s.maps;
   const SsaoPattern& pat = *s.pattern;
   const Eigen::Vector3f p = maps.vertices(x, y);
-  const Eigen::Vector3f n = ssao_normal(s, x, y, maps.normals(x, y));
+  const Eigen::Vector3f n = maps.normals(x, y);  // the SSAO normal (smoothed map)
   const float radius_x = std::min(s.fx * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const float radius_y = std::min(s.fy * disk_radius_m(s) / p.z(), kMaxRadiusPx);
   const int cls = pattern_class(x, y);
@@ -475,8 +465,6 @@ FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const A
                     static_cast<float>(config.d_max_m),
                     static_cast<float>(config.bias),
                     static_cast<float>(config.coverage_power),
-                    config.normal_radius_px,
-                    static_cast<float>(config.normal_max_distance_m * config.normal_max_distance_m),
                     static_cast<float>(config.area_min_cos)};
 }
 
@@ -558,10 +546,19 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
   weight.resize(w, h, 0.0f);
   if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
   const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
-  const FrameSetup setup = make_setup(maps, pattern, config);
+  // The SSAO normals of the whole image at once (the samples' area factor reads them too).
+  thread_local PointMaps smoothed;
+  thread_local std::vector<float> scratch;
+  const PointMaps* in = &maps;
+  if (config.normal_radius_px > 0) {
+    smooth_model_normals(maps, config.normal_radius_px,
+                         static_cast<float>(config.normal_max_distance_m), smoothed, scratch);
+    in = &smoothed;
+  }
+  const FrameSetup setup = make_setup(*in, pattern, config);
   const PixelFn kernel = fast_kernel(config.estimator);
-  const Eigen::Vector3f* verts = maps.vertices.data();
-  const Eigen::Vector3f* norms = maps.normals.data();
+  const Eigen::Vector3f* verts = in->vertices.data();
+  const Eigen::Vector3f* norms = in->normals.data();
 
   if (config.ssao_stride_px <= 1) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -573,10 +570,9 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
           const Eigen::Vector3f& p = verts[base + x];
           const Eigen::Vector3f& n = norms[base + x];
           if (!ssao_pixel_valid(p, n)) continue;
-          const Eigen::Vector3f ns = ssao_normal(setup, x, y, n);
-          const PixelAo r = kernel(setup, x, y, p, ns);
+          const PixelAo r = kernel(setup, x, y, p, n);
           ao_row[x] = r.ao;
-          w_row[x] = pixel_weight(setup, p, ns, r.coverage);
+          w_row[x] = pixel_weight(setup, p, n, r.coverage);
         }
       }
     });
@@ -598,7 +594,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
         }
         if (ex < 0) continue;
         const std::size_t eidx = static_cast<std::size_t>(ey) * w + ex;
-        const Eigen::Vector3f ns = ssao_normal(setup, ex, ey, norms[eidx]);
+        const Eigen::Vector3f& ns = norms[eidx];
         const PixelAo r = kernel(setup, ex, ey, verts[eidx], ns);
         const float value = r.ao;
         for (int dy = 0; dy < 2; ++dy)
@@ -622,10 +618,16 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
   weight.resize(w, h, 0.0f);
   if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
   const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
-  const FrameSetup setup = make_setup(maps, pattern, config);
+  PointMaps smoothed_maps;
+  if (config.normal_radius_px > 0)
+    smooth_model_normals_reference(maps, config.normal_radius_px,
+                                   static_cast<float>(config.normal_max_distance_m),
+                                   smoothed_maps);
+  const PointMaps& maps_in = config.normal_radius_px > 0 ? smoothed_maps : maps;
+  const FrameSetup setup = make_setup(maps_in, pattern, config);
   auto valid = [&](int x, int y) {
-    return maps.vertices.contains(x, y) &&
-           ssao_pixel_valid(maps.vertices(x, y), maps.normals(x, y));
+    return maps_in.vertices.contains(x, y) &&
+           ssao_pixel_valid(maps_in.vertices(x, y), maps_in.normals(x, y));
   };
   const int stride = config.ssao_stride_px <= 1 ? 1 : 2;
   for (int y = 0; y < h; ++y) {
@@ -643,8 +645,8 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
       const PixelAo r = reference_pixel_ao(setup, ex, ey);
       ao(x, y) = r.ao;
       if (ex == x && ey == y) {
-        float w_px = view_weight(maps.vertices(x, y), ssao_normal(setup, x, y, maps.normals(x, y)),
-                                 setup.d_min_m, setup.d_max_m);
+        float w_px = view_weight(maps_in.vertices(x, y), maps_in.normals(x, y), setup.d_min_m,
+                                 setup.d_max_m);
         if (setup.coverage_power > 0.0f)
           w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);
         weight(x, y) = w_px;

@@ -18,7 +18,7 @@
 /// - paper:      AO = mean(rho * (1 - max(c, 0)))           (Eq. 3-5 as printed, no bias)
 /// - obscurance: AO = 1 - mean(max(h / d, 0) * (1 - rho))
 /// - alchemy:    AO = max(0, 1 - mean(r_s * max(h, 0) / ((d^2 + eps r_s^2) max(cos theta_q, c))))
-///               (McGuire 2011; theta_q the angle between the sample's raycast normal and its ray
+///               (McGuire 2011; theta_q the angle between the sample's SSAO normal and its ray
 ///               to the camera, c = ao.area_min_cos: the surface area of the sample's pixel, so an
 ///               occluder seen at a grazing angle counts as much as one seen face-on; c = 1 off)
 /// - horizon:    per slice, the highest horizon on each side (its cosine lowered toward the
@@ -37,6 +37,8 @@
 /// normals within that many pixels whose vertices lie within ao.normal_max_distance_m of p (the
 /// raycast's nearest-voxel TSDF gradients are noisy by a few degrees on a fused noisy surface, and
 /// a tilted tangent plane raises or sinks every sample); it is also the normal of the w_n weight.
+/// The whole normal map is smoothed so (smooth_model_normals()), and each sample's area factor
+/// reads the sample pixel's SSAO normal.
 /// Each pixel's coverage is the share of its samples counted (inside the image, on valid pixels);
 /// with ao.coverage_power p > 0 its weight is (w_d w_n) coverage^p.
 /// AO is in [0, 1] (1 = open). Invalid pixels (zero, NaN or inf vertex or normal, z <= 0) get AO 0

@@ -230,7 +230,11 @@ struct AoConfig {
   /// Alchemy, obscurance and heightfield estimators: a sample occludes only by its height above the
   /// tangent plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth
   /// like their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
-  double bias = 0.005;
+  /// 0.0035: with the whole normal map smoothed (normal_radius_px), the tangent planes are flat
+  /// enough for a lower bias than the 0.005 of raw normals: noisy corner r +0.003 to +0.004 (3
+  /// seeds), room +0.000, exact-depth corner +0.005 (0.0025: room -0.002; 0.0065: all lower); see
+  /// BENCHMARKS.md.
+  double bias = 0.0035;
   /// Coverage weight (in the spirit of the paper's border weight w_b, Eq. 12): in mvao mode a
   /// pixel's weight w_d * w_n is multiplied by coverage^coverage_power, coverage = the share of
   /// its SSAO samples that fell inside the image on valid pixels (samples off the image or in
@@ -249,11 +253,13 @@ struct AoConfig {
   /// raycast normal is the TSDF gradient at the nearest voxel, whose few-degree noise on a fused
   /// noisy surface tilts the tangent plane, so that samples a few centimetres away rise above or
   /// sink below it by more than the bias. 2 px within 4 cm: noisy room r 0.790 -> 0.922, noisy
-  /// corner +0.009 to +0.011 (3 seeds); see BENCHMARKS.md.
+  /// corner +0.009 to +0.011 (3 seeds); see BENCHMARKS.md. The whole normal map is smoothed
+  /// once per frame (smooth_model_normals()), so the samples' area factor (area_min_cos) reads
+  /// the smoothed normals too: noisy corner +0.001 (3 seeds), room +0.005, exact corner +0.002.
   int normal_radius_px = 2;
   double normal_max_distance_m = 0.04;
   /// Alchemy: each sample's term is divided by max(cos theta_q, area_min_cos), theta_q the angle
-  /// between the sample's raycast normal and its ray to the camera. A screen-space sample stands
+  /// between the sample's SSAO normal (smoothed as above) and its ray to the camera. A screen-space sample stands
   /// for the surface area its pixel covers, which grows as 1 / cos theta_q, so an occluder seen
   /// at a grazing angle (a few pixels wide) would otherwise count far less than the same occluder
   /// seen face-on; the floor keeps single grazing pixels from dominating. 1 = off (McGuire et
@@ -297,7 +303,8 @@ struct AoConfig {
               "mesh AO reads the grid through cells of factor^3 grid cells (1 = the grid's cells)",
               1, 64);
     v.integer("normal_radius_px", normal_radius_px,
-              "SSAO normal: sum of the raycast normals within this many pixels (0 = the pixel's own)",
+              "SSAO normal (evaluated pixels and samples): sum of the raycast normals within this "
+              "many pixels (0 = the pixel's own)",
               0, 16);
     v.number("normal_max_distance_m", normal_max_distance_m,
              "SSAO normal: only neighbours whose vertices lie within this distance (m)", 0.0, 10.0);

@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 
 #include "ao/ao_test_util.h"
+#include "fusion/icp.h"
 
 namespace aoscan {
 namespace {
@@ -133,7 +134,7 @@ TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
         }
       ASSERT_GT(near_n, 100);
       ASSERT_GT(far_n, 1000);
-      // The bias (6 mm at this depth) keeps the nearest samples on the wall from occluding.
+      // The bias (4-5 mm at this depth) keeps the nearest samples on the wall from occluding.
       EXPECT_LT(near_sum / near_n, bias > 0.0 ? 0.87 : 0.85) << static_cast<int>(e);
       EXPECT_GT(far_sum / far_n, 0.98) << static_cast<int>(e);
       // Obscurance: a sample on the other plane farther than t_max has rho = 1 and does not count
@@ -193,19 +194,19 @@ TEST(Ssao, CoverageWeightLowersPixelsWhoseDiskLeavesTheImage) {
 }
 
 TEST(Ssao, BiasIgnoresBumpsLowerThanBiasTimesDepth) {
-  // The open wall at 1.2 m with a checkerboard of 4 mm bumps toward the camera (each vertex moved
-  // along its pixel ray): below the default bias of 0.005 * 1.2 m = 6 mm, so the point estimators
+  // The open wall at 1.2 m with a checkerboard of 3 mm bumps toward the camera (each vertex moved
+  // along its pixel ray): below the default bias of 0.0035 * 1.2 m = 4.2 mm, so the point estimators
   // see an open wall; without the bias the bumps occlude the pixels between them.
   PointMaps maps = open_wall();
   for (int y = 0; y < maps.vertices.height(); ++y)
     for (int x = 0; x < maps.vertices.width(); ++x) {
       Eigen::Vector3f& v = maps.vertices(x, y);
-      if (((x / 4) + (y / 4)) % 2 == 1) v *= (v.z() - 0.004f) / v.z();
+      if (((x / 4) + (y / 4)) % 2 == 1) v *= (v.z() - 0.003f) / v.z();
     }
   Image<float> ao, w;
   for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy}) {
     AoConfig config = config_for(e, 1);
-    ASSERT_EQ(config.bias, 0.005);
+    ASSERT_EQ(config.bias, 0.0035);
     compute_ssao(maps, config, 0, ao, w);
     for (int y = 0; y < ao.height(); ++y)
       for (int x = 0; x < ao.width(); ++x) ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
@@ -290,6 +291,50 @@ TEST(Ssao, AlchemyAreaFactorDividesByTheOccludersSlant) {
       EXPECT_NEAR(1.0f - ao_slanted(x, y), (1.0f - ao_plain(x, y)) / 0.9f, 2e-5f) << x << " " << y;
     }
   EXPECT_GT(occluded, 100);
+}
+
+TEST(Ssao, EvaluatedPixelsAndSamplesBothReadTheSmoothedNormal) {
+  // The SSAO normal smoothing acts on the whole normal map: at normal_radius_px = r the AO and
+  // the weights are those of radius 0 on the map smooth_model_normals() gives, so the area
+  // factor of each occluding sample reads the sample's smoothed normal too, not its raycast one.
+  // floor_wall_edge() with each normal tilted by a different angle about the camera's y axis.
+  PointMaps maps = floor_wall_edge();
+  for (int y = 0; y < maps.normals.height(); ++y)
+    for (int x = 0; x < maps.normals.width(); ++x) {
+      const float t = 0.08f * static_cast<float>((x * 7 + y * 3) % 5 - 2);
+      const Eigen::Vector3f n = maps.normals(x, y);
+      maps.normals(x, y) = Eigen::Vector3f(std::cos(t) * n.x() + std::sin(t) * n.z(), n.y(),
+                                           -std::sin(t) * n.x() + std::cos(t) * n.z());
+    }
+  AoConfig config = config_for(AoEstimator::kAlchemy, 1);
+  ASSERT_EQ(config.normal_radius_px, 2);
+  ASSERT_LT(config.area_min_cos, 1.0);
+  PointMaps smoothed;
+  smooth_model_normals_reference(maps, config.normal_radius_px,
+                                 static_cast<float>(config.normal_max_distance_m), smoothed);
+  AoConfig own = config;
+  own.normal_radius_px = 0;
+  for (int stride : {1, 2}) {
+    config.ssao_stride_px = own.ssao_stride_px = stride;
+    Image<float> ao, w, ao_own, w_own, ao_raw, w_raw;
+    compute_ssao(maps, config, 3, ao, w);
+    compute_ssao(smoothed, own, 3, ao_own, w_own);
+    compute_ssao(maps, own, 3, ao_raw, w_raw);
+    float max_diff = 0.0f, raw_diff = 0.0f;
+    for (std::size_t i = 0; i < ao.size(); ++i) {
+      max_diff = std::max(max_diff, std::abs(ao.data()[i] - ao_own.data()[i]));
+      raw_diff = std::max(raw_diff, std::abs(ao.data()[i] - ao_raw.data()[i]));
+    }
+    EXPECT_EQ(max_diff, 0.0f) << "stride " << stride;
+    EXPECT_EQ(w, w_own) << "stride " << stride;
+    EXPECT_GT(raw_diff, 0.01f) << "stride " << stride;  // the smoothing matters here
+    Image<float> ao_ref, w_ref;
+    compute_ssao_reference(maps, config, 3, ao_ref, w_ref);
+    float ref_diff = 0.0f;
+    for (std::size_t i = 0; i < ao.size(); ++i)
+      ref_diff = std::max(ref_diff, std::abs(ao.data()[i] - ao_ref.data()[i]));
+    EXPECT_LE(ref_diff, 1e-5f) << "stride " << stride;
+  }
 }
 
 TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
