@@ -18,8 +18,6 @@ namespace {
 
 /// Pixels per tile edge of the depth-bounds image.
 constexpr int kTile = 8;
-/// How far ahead along a row the raycast prefetches a hinted ray's first cell.
-constexpr int kPrefetchPixels = 2;
 /// Block groups of the depth-bounds pass; fixed so the split never depends on threads.
 constexpr int kBoundsGroups = 16;
 /// Steps of the search around a depth hint before falling back to a march of the window ...
@@ -39,8 +37,6 @@ struct Ray {
   Eigen::Vector3f dir;
   Eigen::Vector3f ray_camera;  ///< (x/z, y/z, 1) of the pixel
   float metres_per_s;          ///< |ray_camera|: metres travelled per unit of s
-
-  Eigen::Vector3f at(float s) const { return origin + s * dir; }
 };
 
 /// Finds the zero crossing between s0 (tsdf f0 >= 0) and s1 (tsdf f1 < 0) on trilinear samples by
@@ -263,13 +259,9 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
   const float s_per_metre = 1.0f / ray.metres_per_s;
   const float min_step = voxel_size * s_per_metre;
   const float big_step = 0.8f * truncation * s_per_metre;
-  const float free_step = truncation * s_per_metre;  // the step from a voxel of free space
   float prev_s = 0.0f, prev_f = 0.0f;
   bool prev_valid = false;
   while (s < s_end) {
-    // Most steps of a march cross free space (tsdf 1): the voxel that step lands on loads
-    // while this one does.
-    sampler.prefetch_nearest(ray.at(s + free_step));
     // Steps read the nearest voxel only (one cache line); trilinear samples are taken once a
     // sign change is bracketed.
     const Eigen::Vector3f g = ray.origin + s * ray.dir;
@@ -407,21 +399,13 @@ void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose&
       tbb::blocked_range<int>(0, intrinsics.height, 4), [&](const tbb::blocked_range<int>& rows) {
         TsdfSampler sampler(volume);
         for (int y = rows.begin(); y != rows.end(); ++y) {
-          const float* hint_row = depth_hint_m != nullptr ? depth_hint_m->row(y) : nullptr;
           for (int x = 0; x < intrinsics.width; ++x) {
-            // The first sample of a hinted ray two pixels on is known now: its voxels load
-            // while this ray runs (most hinted rays need only the cells next to that sample).
-            if (hint_row != nullptr && x + kPrefetchPixels < intrinsics.width) {
-              const float d_next = hint_row[x + kPrefetchPixels];
-              if (d_next > 0.0f && d_next < 1e4f)
-                sampler.prefetch_cell(setup.ray(x + kPrefetchPixels, y).at(d_next));
-            }
             const std::size_t ti = static_cast<std::size_t>(y / kTile) * tiles_x + x / kTile;
             const float s_end = std::min(zmax[ti], max_depth);
             const float s_begin = std::max(zmin[ti], min_depth);
             if (!(s_begin < s_end)) continue;
             const Ray ray = setup.ray(x, y);
-            const float d = hint_row != nullptr ? hint_row[x] : 0.0f;
+            const float d = depth_hint_m != nullptr ? (*depth_hint_m)(x, y) : 0.0f;
             if (d > 0.0f && d < 1e4f) {
               // The frame saw this pixel's surface at depth d and free space in front of it:
               // the model's first crossing is next to d, or the model is unsure here.

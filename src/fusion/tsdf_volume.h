@@ -282,31 +282,6 @@ class TsdfSampler {
     return true;
   }
 
-  /// Asks the memory system for the voxels of the trilinear cell around g (when their block is
-  /// allocated) without waiting for them: a kernel calls it for the next ray's first sample
-  /// before working on this ray, so the cache misses of the two overlap. Changes no result.
-  void prefetch_cell(const Eigen::Vector3f& g) {
-    const int x = floor_to_int(g.x()), y = floor_to_int(g.y()), z = floor_to_int(g.z());
-    const VoxelBlock* block = find(x >> 3, y >> 3, z >> 3);
-    if (block == nullptr) return;
-    const int i = voxel_index(x & 7, y & 7, z & 7);
-    const int y1 = (y & 7) != 7 ? kBlockSize : 0;
-    const int z1 = (z & 7) != 7 ? kBlockSize * kBlockSize : 0;
-    __builtin_prefetch(&block->voxels[i]);
-    __builtin_prefetch(&block->voxels[i + y1]);
-    __builtin_prefetch(&block->voxels[i + z1]);
-    __builtin_prefetch(&block->voxels[i + y1 + z1]);
-  }
-
-  /// prefetch_cell() for the voxel nearest to g only (one cache line).
-  void prefetch_nearest(const Eigen::Vector3f& g) {
-    const int x = floor_to_int(g.x() + 0.5f);
-    const int y = floor_to_int(g.y() + 0.5f);
-    const int z = floor_to_int(g.z() + 0.5f);
-    const VoxelBlock* block = find(x >> 3, y >> 3, z >> 3);
-    if (block != nullptr) __builtin_prefetch(&block->voxels[voxel_index(x & 7, y & 7, z & 7)]);
-  }
-
   /// TSDF gradient (per voxel) at the voxel nearest to g by central differences of its six
   /// neighbours: 7 voxel reads, for kernels that cannot afford trilinear differences. False when
   /// a neighbour is unallocated or unobserved.
