@@ -2,8 +2,6 @@
 /// @brief Session: thread budget, the chain, progress line, outputs.
 #include "pipeline/session.h"
 
-#include <pthread.h>
-#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -130,7 +128,7 @@ class CommandPump {
 };
 
 /// Redraws per second of the live view (the camera delivers 30 frames a second), and the nice
-/// increment of its thread where the idle scheduling policy is refused.
+/// increment of its thread.
 constexpr double kWindowRedrawHz = 30.0;
 constexpr int kWindowNice = 10;
 
@@ -145,19 +143,15 @@ class WindowThread {
     options.window.title = title;
     options.max_redraw_hz = kWindowRedrawHz;
     thread_ = std::thread([this, options, &view, &commands, on_unavailable] {
-      // The window never takes the CPU from fusion: this thread and the threads the GL driver
-      // starts from it (software GL such as llvmpipe renders on the CPU) run under SCHED_IDLE,
-      // i.e. on the time fusion leaves. Where that policy is refused, a nice value below the
-      // pipeline's own (so that it stays below when aoscan itself runs under nice).
-      sched_param idle{};
-      if (pthread_setschedparam(pthread_self(), SCHED_IDLE, &idle) != 0) {
-        const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
-        errno = 0;
-        const int own_nice = getpriority(PRIO_PROCESS, tid);
-        if (errno != 0 ||
-            setpriority(PRIO_PROCESS, tid, std::min(own_nice + kWindowNice, 19)) != 0)
-          spdlog::debug("live view: could not lower the window thread's priority");
-      }
+      // The window yields the CPU to fusion: a lower priority for this thread and the threads
+      // the GL driver starts from it (software GL such as llvmpipe renders on the CPU).
+      // Relative to the pipeline's own nice value, so that it stays below the pipeline when
+      // aoscan itself runs under nice.
+      const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
+      errno = 0;
+      const int own_nice = getpriority(PRIO_PROCESS, tid);
+      if (errno != 0 || setpriority(PRIO_PROCESS, tid, std::min(own_nice + kWindowNice, 19)) != 0)
+        spdlog::debug("live view: could not lower the window thread's priority");
       const ViewFeed feed = [&view] { return view.take_latest(); };
       const LiveViewResult result = run_live_view(options, feed, commands, stop_);
       using Outcome = LiveViewResult::Outcome;
