@@ -79,8 +79,14 @@ std::shared_ptr<const ViewFrame> ViewStage::take_latest() {
 
 Status ViewStage::process(FrameWork& frame) {
   ++frames_seen_;
-  if (frame.view_products) ++products_arrived_;
-  if (!active() || !frame.view_products) return Status::ok();
+  if (!frame.view_products) return Status::ok();
+  // Counted on the way out, after the product is published: caught_up() compares the mailbox
+  // version with the window's, so an arrival must never be seen before its product.
+  struct CountOnExit {
+    std::atomic<std::uint64_t>& count;
+    ~CountOnExit() { ++count; }
+  } arrival{products_arrived_};
+  if (!active()) return Status::ok();
 
   // The orbit cloud follows the model: a reset starts it over.
   if (frame.model_reset) {
