@@ -127,9 +127,10 @@ class CommandPump {
   std::thread thread_;
 };
 
-/// Redraws per second of the live view (the camera delivers 30 frames a second), and the nice
-/// increment of its thread.
+/// Redraws per second of the live view (the camera delivers 30 frames a second), new frames per
+/// second it shows when the GL renderer draws on the CPU, and the nice increment of its thread.
 constexpr double kWindowRedrawHz = 30.0;
+constexpr double kSoftwareGlFrameHz = 5.0;
 constexpr int kWindowNice = 10;
 
 /// The live view on its own thread; stopped and joined by stop() or the destructor.
@@ -142,6 +143,7 @@ class WindowThread {
     LiveViewOptions options;
     options.window.title = title;
     options.max_redraw_hz = kWindowRedrawHz;
+    options.software_max_frame_hz = kSoftwareGlFrameHz;
     thread_ = std::thread([this, options, &view, &commands, on_unavailable] {
       // The window yields the CPU to fusion: a lower priority for this thread and the threads
       // the GL driver starts from it (software GL such as llvmpipe renders on the CPU).

@@ -12,6 +12,13 @@
 #include "render/hud.h"
 
 namespace aoscan {
+
+bool software_renderer(const std::string& gl_renderer) {
+  for (const char* name : {"llvmpipe", "softpipe", "swrast", "SwiftShader", "Software Rasterizer"})
+    if (gl_renderer.find(name) != std::string::npos) return true;
+  return false;
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -51,6 +58,10 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
     double draw_fps = 0.0;
     Clock::time_point last_draw = Clock::now();
     const double wait_s = options.max_redraw_hz > 0 ? 1.0 / options.max_redraw_hz : 0.0;
+    const double frame_interval_s =
+        software_renderer(result.gl_renderer) && options.software_max_frame_hz > 0
+            ? 1.0 / options.software_max_frame_hz
+            : 0.0;
 
     while (!stop.load()) {
       const WindowEvents events = window->poll_events(wait_s);
@@ -83,7 +94,10 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
 
       bool changed = !events.keys.empty() || events.drag_dx_px != 0.0 || events.drag_dy_px != 0.0 ||
                      events.scroll != 0.0 || events.damaged;
-      std::shared_ptr<const ViewFrame> latest = feed ? feed() : nullptr;
+      const bool frame_due =
+          !shown || std::chrono::duration<double>(Clock::now() - last_draw).count() >=
+                        frame_interval_s;
+      std::shared_ptr<const ViewFrame> latest = feed && frame_due ? feed() : nullptr;
       if (latest && latest != shown) {
         shown = std::move(latest);
         uploaded_view.reset();

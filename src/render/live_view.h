@@ -36,6 +36,10 @@ struct LiveViewOptions {
   /// idle_redraw_s (0: on every pass of the loop). Redrawing an unchanged picture would only take
   /// CPU from fusion (the software renderer shares its cores).
   double idle_redraw_s = 0.5;
+  /// With a software GL renderer (software_renderer()), a new frame is taken at most this often
+  /// (0 = as they come); input still redraws at once. Such a renderer draws on the CPU cores
+  /// that fusion needs, and the demand-driven view products follow the frames taken.
+  double software_max_frame_hz = 0.0;
   /// Test hooks: replacement shader sources, and a redraw count after which the loop returns
   /// kStopped (0 = no limit).
   ShaderOverrides shader_overrides;
@@ -54,6 +58,10 @@ struct LiveViewResult {
   long redraws = 0;
   std::string gl_renderer;  ///< GL_RENDERER of the context, when one was made
 };
+
+/// True for GL_RENDERER strings of renderers that draw on the CPU (Mesa's llvmpipe, softpipe
+/// and swrast, SwiftShader).
+bool software_renderer(const std::string& gl_renderer);
 
 /// What the keys change inside the view itself.
 struct LiveViewState {

@@ -428,6 +428,48 @@ TEST_F(LiveViewTest, RedrawsOnlyForNewFrames) {
   EXPECT_LE(r.redraws, 3);
 }
 
+TEST_F(LiveViewTest, SoftwareRendererTakesNewFramesAtMostAtTheCap) {
+  // A feed with a new frame on every call, for 1.2 s. With a software renderer (Mesa's llvmpipe
+  // under Xvfb, as in CI) and a 5 Hz cap, about 6 frames are taken; without the cap, every pass
+  // of a 200 Hz loop takes one. A GPU renderer is not capped.
+  const auto base = std::make_shared<ViewFrame>(testing::sphere_wall_frame(64, 48));
+  for (const double cap : {5.0, 0.0}) {
+    ViewCommandQueue commands;
+    std::atomic<bool> stop{false};
+    LiveViewOptions options = hidden_window();
+    options.max_redraw_hz = 200;
+    options.idle_redraw_s = 60;
+    options.software_max_frame_hz = cap;
+    int taken = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(1200);
+    const LiveViewResult r = run_view(
+        options,
+        [&]() -> std::shared_ptr<const ViewFrame> {
+          if (std::chrono::steady_clock::now() > end) stop = true;
+          ++taken;
+          return std::make_shared<ViewFrame>(*base);
+        },
+        commands, stop);
+    ASSERT_EQ(r.outcome, LiveViewResult::Outcome::kStopped) << r.message;
+    if (!software_renderer(r.gl_renderer)) GTEST_SKIP() << "hardware GL: " << r.gl_renderer;
+    if (cap > 0) {
+      EXPECT_GE(taken, 3) << cap;
+      EXPECT_LE(taken, 8) << cap;  // 1.2 s at 5 Hz, and the first frame at once
+    } else {
+      EXPECT_GT(taken, 20);
+    }
+  }
+}
+
+TEST(LiveView, SoftwareRenderersAreRecognised) {
+  EXPECT_TRUE(software_renderer("llvmpipe (LLVM 15.0.6, 256 bits)"));
+  EXPECT_TRUE(software_renderer("softpipe"));
+  EXPECT_TRUE(software_renderer("Google SwiftShader"));
+  EXPECT_FALSE(software_renderer("Mesa Intel(R) UHD Graphics 620 (KBL GT2)"));
+  EXPECT_FALSE(software_renderer("NVIDIA GeForce RTX 3060/PCIe/SSE2"));
+  EXPECT_FALSE(software_renderer(""));
+}
+
 TEST_F(LiveViewTest, BrokenShaderFallsBackHeadless) {
   ViewCommandQueue commands;
   std::atomic<bool> stop{false};
