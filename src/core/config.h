@@ -90,8 +90,8 @@ struct FusionConfig {
   void visit(V& v) {
     v.number("voxel_size_m", voxel_size_m, "TSDF voxel edge (m)", 1e-4, 1.0);
     v.number("truncation_m", truncation_m, "TSDF truncation distance (m)", 1e-4, 10.0);
-    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations)", 1.0,
-             65535.0);
+    v.number("max_weight", max_weight,
+             "cap of the per-voxel TSDF weight (observations, 1-65535)", 1.0, 65535.0);
     v.integer("max_blocks", max_blocks,
               "TSDF capacity in 8^3 voxel blocks of 2 KiB; reaching it is reported", 1, 1 << 24);
     v.number("raycast_min_depth_m", raycast_min_depth_m, "raycast: nearest depth searched (m)", 0.0,
