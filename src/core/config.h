@@ -90,8 +90,8 @@ struct FusionConfig {
   void visit(V& v) {
     v.number("voxel_size_m", voxel_size_m, "TSDF voxel edge (m)", 1e-4, 1.0);
     v.number("truncation_m", truncation_m, "TSDF truncation distance (m)", 1e-4, 10.0);
-    v.number("max_weight", max_weight,
-             "cap of the per-voxel TSDF weight (observations, 1-65535)", 1.0, 65535.0);
+    v.number("max_weight", max_weight, "cap of the per-voxel TSDF weight (observations, 1-65535)",
+             1.0, 65535.0);
     v.integer("max_blocks", max_blocks,
               "TSDF capacity in 8^3 voxel blocks of 2 KiB; reaching it is reported", 1, 1 << 24);
     v.number("raycast_min_depth_m", raycast_min_depth_m, "raycast: nearest depth searched (m)", 0.0,
@@ -259,12 +259,12 @@ struct AoConfig {
   int normal_radius_px = 2;
   double normal_max_distance_m = 0.04;
   /// Alchemy: each sample's term is divided by max(cos theta_q, area_min_cos), theta_q the angle
-  /// between the sample's SSAO normal (smoothed as above) and its ray to the camera. A screen-space sample stands
-  /// for the surface area its pixel covers, which grows as 1 / cos theta_q, so an occluder seen
-  /// at a grazing angle (a few pixels wide) would otherwise count far less than the same occluder
-  /// seen face-on; the floor keeps single grazing pixels from dominating. 1 = off (McGuire et
-  /// al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r +0.002 to
-  /// +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
+  /// between the sample's SSAO normal (smoothed as above) and its ray to the camera. A screen-space
+  /// sample stands for the surface area its pixel covers, which grows as 1 / cos theta_q, so an
+  /// occluder seen at a grazing angle (a few pixels wide) would otherwise count far less than the
+  /// same occluder seen face-on; the floor keeps single grazing pixels from dominating. 1 = off
+  /// (McGuire et al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r
+  /// +0.002 to +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
   double area_min_cos = 0.5;
 
   template <class V>

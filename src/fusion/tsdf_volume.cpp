@@ -186,7 +186,8 @@ __attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b,
       const __m256 t_new = _mm256_div_ps(_mm256_add_ps(_mm256_mul_ps(t, w), tsdf), w1);
       const __m256 w_new = _mm256_min_ps(w1, max_weight);
       // |t_new| <= 1 (an average of values in [-1, 1]), so no clamp: Voxel::store's is a no-op.
-      const __m256i t_q = _mm256_and_si256(_mm256_cvtps_epi32(_mm256_mul_ps(t_new, tsdf_scale)), low16);
+      const __m256i t_q =
+          _mm256_and_si256(_mm256_cvtps_epi32(_mm256_mul_ps(t_new, tsdf_scale)), low16);
       const __m256i updated =
           _mm256_or_si256(t_q, _mm256_slli_epi32(_mm256_cvttps_epi32(w_new), 16));
       _mm256_storeu_si256(out, _mm256_blendv_epi8(packed, updated, _mm256_castps_si256(mask)));
@@ -221,15 +222,16 @@ __attribute__((target("avx2"))) inline __m256i floor8(__m256 v) {
 /// lanes with a valid depth (bit i = pixel x0 + i) in the low byte and, among them, those whose
 /// ends are inside the packable block range in the high byte.
 __attribute__((target("avx2"))) int band_segments_avx2(const float* depth, int x0,
-                                                        const BandRays& r, BandSegments8& out) {
+                                                       const BandRays& r, BandSegments8& out) {
   const __m256 d = _mm256_loadu_ps(depth + x0);
   const __m256 valid = _mm256_and_ps(_mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_GT_OQ),
                                      _mm256_cmp_ps(d, _mm256_set1_ps(1e4f), _CMP_LT_OQ));
   const int valid_bits = _mm256_movemask_ps(valid);
   if (valid_bits == 0) return 0;
-  const __m256 xs = _mm256_add_ps(_mm256_set1_ps(static_cast<float>(x0)),
-                                  _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
-  const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(xs, _mm256_set1_ps(r.cx)), _mm256_set1_ps(r.fx_inv));
+  const __m256 xs =
+      _mm256_add_ps(_mm256_set1_ps(static_cast<float>(x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
+  const __m256 rx =
+      _mm256_mul_ps(_mm256_sub_ps(xs, _mm256_set1_ps(r.cx)), _mm256_set1_ps(r.fx_inv));
   const __m256 trunc = _mm256_set1_ps(r.trunc);
   const __m256 z0 = _mm256_max_ps(_mm256_sub_ps(d, trunc), _mm256_mul_ps(_mm256_set1_ps(0.5f), d));
   const __m256 z1 = _mm256_add_ps(d, trunc);
@@ -238,8 +240,8 @@ __attribute__((target("avx2"))) int band_segments_avx2(const float* depth, int x
   const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
   __m256 inside = valid;
   for (int c = 0; c < 3; ++c) {
-    const __m256 dir = _mm256_add_ps(_mm256_set1_ps(r.row_dir[c]),
-                                     _mm256_mul_ps(rx, _mm256_set1_ps(r.x_dir[c])));
+    const __m256 dir =
+        _mm256_add_ps(_mm256_set1_ps(r.row_dir[c]), _mm256_mul_ps(rx, _mm256_set1_ps(r.x_dir[c])));
     const __m256 origin = _mm256_set1_ps(r.origin[c]);
     const __m256 a = _mm256_add_ps(_mm256_mul_ps(dir, z0), origin);
     const __m256 b = _mm256_add_ps(_mm256_mul_ps(dir, z1), origin);
@@ -442,8 +444,8 @@ IntegrateStats TsdfVolume::allocate_band(const Image<float>& depth_m, const Intr
       const float* row = depth_m.row(y);
       const float ry = (static_cast<float>(y) - cy) * fy_inv;
       // The pixel's ray direction in block-grid units per metre of depth: row_dir + rx * x_dir.
-      const BandRays rays_of_row{(R.col(1) * ry + R.col(2)) * to_grid, x_dir, origin, cx, fx_inv,
-                                 trunc};
+      const BandRays rays_of_row{
+          (R.col(1) * ry + R.col(2)) * to_grid, x_dir, origin, cx, fx_inv, trunc};
       int x = 0;
 #if AOSCAN_TSDF_X86
       if (simd) {

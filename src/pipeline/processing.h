@@ -48,7 +48,9 @@ class Processing {
   /// With a demand set (before the chain starts), the mvao stage builds the view products of a
   /// frame only when `ready(products built so far)` says the consumer has caught up: the window
   /// is shown as often as it can draw, and no product is made that it would never show.
-  void set_view_demand(std::function<bool(std::uint64_t)> ready) { view_demand_ = std::move(ready); }
+  void set_view_demand(std::function<bool(std::uint64_t)> ready) {
+    view_demand_ = std::move(ready);
+  }
 
   /// Models started by request_reset() so far, and on-demand writes done (thread-safe).
   std::size_t model_resets() const { return model_resets_.load(); }
@@ -86,7 +88,7 @@ class Processing {
   /// Raycasts in flight (tracking reference + downstream); declared before reconstruction_,
   /// which holds one of them, so that it outlives every pointer it handed out.
   ObjectPool<RaycastResult> raycasts_;
-  Reconstruction reconstruction_;  ///< written by the track stage only
+  Reconstruction reconstruction_;    ///< written by the track stage only
   MvaoGrid grid_;                    ///< written by the mvao stage only
   Image<std::uint32_t> view_slots_;  ///< the grid slots of the frame's pixels, for mvao_image()
   std::vector<StampedPose> trajectory_;

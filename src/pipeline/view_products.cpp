@@ -19,40 +19,40 @@ void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world
                 Image<float>& out, const Image<std::uint32_t>* slots) {
   const int w = maps.vertices.width();
   out.resize(w, maps.vertices.height());
-  if (slots != nullptr && (slots->width() != w || slots->height() != out.height()))
-    slots = nullptr;
-  tbb::parallel_for(tbb::blocked_range<int>(0, out.height()), [&](const tbb::blocked_range<int>& r) {
-    // The pixels without a slot are looked up in batches gathered on the stack.
-    constexpr int kBatch = 64;
-    Eigen::Vector3f rest[kBatch];
-    int rest_x[kBatch];
-    float rest_ao[kBatch];
-    for (int y = r.begin(); y < r.end(); ++y) {
-      const Eigen::Vector3f* vertices = maps.vertices.row(y);
-      float* ao = out.row(y);
-      if (slots == nullptr) {
-        grid.lookup_ao(vertices, static_cast<std::size_t>(w), T_world_camera, ao);
-        continue;
-      }
-      const std::uint32_t* slot = slots->row(y);
-      int count = 0;
-      const auto flush = [&] {
-        grid.lookup_ao(rest, static_cast<std::size_t>(count), T_world_camera, rest_ao);
-        for (int i = 0; i < count; ++i) ao[rest_x[i]] = rest_ao[i];
-        count = 0;
-      };
-      for (int x = 0; x < w; ++x) {
-        if (slot[x] != MvaoGrid::kNoSlot) {
-          ao[x] = grid.slot_ao(slot[x]);
-          continue;
+  if (slots != nullptr && (slots->width() != w || slots->height() != out.height())) slots = nullptr;
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, out.height()), [&](const tbb::blocked_range<int>& r) {
+        // The pixels without a slot are looked up in batches gathered on the stack.
+        constexpr int kBatch = 64;
+        Eigen::Vector3f rest[kBatch];
+        int rest_x[kBatch];
+        float rest_ao[kBatch];
+        for (int y = r.begin(); y < r.end(); ++y) {
+          const Eigen::Vector3f* vertices = maps.vertices.row(y);
+          float* ao = out.row(y);
+          if (slots == nullptr) {
+            grid.lookup_ao(vertices, static_cast<std::size_t>(w), T_world_camera, ao);
+            continue;
+          }
+          const std::uint32_t* slot = slots->row(y);
+          int count = 0;
+          const auto flush = [&] {
+            grid.lookup_ao(rest, static_cast<std::size_t>(count), T_world_camera, rest_ao);
+            for (int i = 0; i < count; ++i) ao[rest_x[i]] = rest_ao[i];
+            count = 0;
+          };
+          for (int x = 0; x < w; ++x) {
+            if (slot[x] != MvaoGrid::kNoSlot) {
+              ao[x] = grid.slot_ao(slot[x]);
+              continue;
+            }
+            rest[count] = vertices[x];
+            rest_x[count] = x;
+            if (++count == kBatch) flush();
+          }
+          flush();
         }
-        rest[count] = vertices[x];
-        rest_x[count] = x;
-        if (++count == kBatch) flush();
-      }
-      flush();
-    }
-  });
+      });
 }
 
 void mvao_image_reference(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,

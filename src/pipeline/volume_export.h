@@ -25,8 +25,9 @@ VdbWriteStats write_volume(const std::string& path, const TsdfVolume& volume,
 
 /// Replaces the content of `volume` by `data` (read_volume_vdb()): one block per brick, voxel
 /// tsdf = sdf_m / truncation of `volume` stored in the voxel's fixed point (Voxel::store: equal
-/// to the written voxel when the truncations agree), weight as read (truncated to an integer). Throws usage_error when the voxel sizes differ by more than 1e-6 relative or
-/// the capacity (fusion.max_blocks) is too small.
+/// to the written voxel when the truncations agree), weight as read (truncated to an integer).
+/// Throws usage_error when the voxel sizes differ by more than 1e-6 relative or the capacity
+/// (fusion.max_blocks) is too small.
 void load_volume(const VolumeData& data, TsdfVolume& volume);
 
 }  // namespace aoscan

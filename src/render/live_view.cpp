@@ -95,8 +95,8 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
       bool changed = !events.keys.empty() || events.drag_dx_px != 0.0 || events.drag_dy_px != 0.0 ||
                      events.scroll != 0.0 || events.damaged;
       const bool frame_due =
-          !shown || std::chrono::duration<double>(Clock::now() - last_draw).count() >=
-                        frame_interval_s;
+          !shown ||
+          std::chrono::duration<double>(Clock::now() - last_draw).count() >= frame_interval_s;
       std::shared_ptr<const ViewFrame> latest = feed && frame_due ? feed() : nullptr;
       if (latest && latest != shown) {
         shown = std::move(latest);

@@ -195,8 +195,8 @@ TEST(Ssao, CoverageWeightLowersPixelsWhoseDiskLeavesTheImage) {
 
 TEST(Ssao, BiasIgnoresBumpsLowerThanBiasTimesDepth) {
   // The open wall at 1.2 m with a checkerboard of 3 mm bumps toward the camera (each vertex moved
-  // along its pixel ray): below the default bias of 0.0035 * 1.2 m = 4.2 mm, so the point estimators
-  // see an open wall; without the bias the bumps occlude the pixels between them.
+  // along its pixel ray): below the default bias of 0.0035 * 1.2 m = 4.2 mm, so the point
+  // estimators see an open wall; without the bias the bumps occlude the pixels between them.
   PointMaps maps = open_wall();
   for (int y = 0; y < maps.vertices.height(); ++y)
     for (int x = 0; x < maps.vertices.width(); ++x) {
@@ -239,8 +239,8 @@ TEST(Ssao, NormalSmoothingAveragesTheSameSurfaceOnly) {
     for (int x = 60; x < 260; x += 3) {
       ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
       // The w_n weight uses the smoothed normal too: that of the untilted wall.
-      EXPECT_NEAR(w(x, y),
-                  pixel_view_weight(maps.vertices(x, y), facing, config), 1e-5f) << x << " " << y;
+      EXPECT_NEAR(w(x, y), pixel_view_weight(maps.vertices(x, y), facing, config), 1e-5f)
+          << x << " " << y;
     }
   config.normal_radius_px = 0;
   compute_ssao(maps, config, 0, ao, w);
