@@ -270,14 +270,20 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
     const int gz = floor_to_int(g.z() + 0.5f);
     const Voxel* v = sampler.voxel(gx, gy, gz);
     if (v == nullptr) {
-      // Jump to where the ray leaves the region whose nearest voxel is in this unallocated
-      // block, [8b - 0.5, 8b + 7.5) per axis.
+      // Jump to where the ray leaves the space whose nearest voxel is in this unallocated
+      // block, [8b - 0.5, 8b + 7.5) per axis, or in this empty region of blocks.
+      constexpr int kRegionShift = 5;  // log2(kBlockSize * TsdfVolume::kRegionBlocks)
+      static_assert(kBlockSize * TsdfVolume::kRegionBlocks == 1 << kRegionShift);
+      const int shift =
+          sampler.region_empty(gx >> kRegionShift, gy >> kRegionShift, gz >> kRegionShift)
+              ? kRegionShift
+              : 3;
       float s_exit = std::numeric_limits<float>::infinity();
-      const int b[3] = {gx >> 3, gy >> 3, gz >> 3};
+      const int b[3] = {gx >> shift, gy >> shift, gz >> shift};
       for (int a = 0; a < 3; ++a) {
         if (ray.dir[a] == 0.0f) continue;
         const float boundary =
-            static_cast<float>(kBlockSize * (ray.dir[a] > 0.0f ? b[a] + 1 : b[a])) - 0.5f;
+            static_cast<float>((ray.dir[a] > 0.0f ? b[a] + 1 : b[a]) * (1 << shift)) - 0.5f;
         s_exit = std::min(s_exit, (boundary - ray.origin[a]) / ray.dir[a]);
       }
       s = std::max(s_exit, s) + 0.01f * min_step;

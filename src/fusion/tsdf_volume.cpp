@@ -312,6 +312,7 @@ TsdfVolume::TsdfVolume(const FusionConfig& config)
 
 void TsdfVolume::reset() {
   map_.clear();
+  regions_.clear();
   chunks_.clear();
   coords_.clear();
   coords_.shrink_to_fit();
@@ -339,6 +340,9 @@ int TsdfVolume::allocate_block(const Eigen::Vector3i& coord) {
   coords_.push_back(coord);
   last_frame_.push_back(0);
   map_.insert(key, index);
+  const std::uint64_t region_key = pack(coord.unaryExpr([](int b) { return b >> 2; }));
+  static_assert(kRegionBlocks == 4, "the region shift above is log2(kRegionBlocks)");
+  if (regions_.find(region_key) < 0) regions_.insert(region_key, index);
   return index;
 }
 
@@ -366,7 +370,8 @@ std::vector<int> TsdfVolume::sorted_block_indices() const {
 
 std::size_t TsdfVolume::memory_bytes() const {
   return chunks_.size() * (std::size_t{1} << kChunkBits) * sizeof(VoxelBlock) +
-         map_.memory_bytes() + coords_.capacity() * sizeof(Eigen::Vector3i) +
+         map_.memory_bytes() + regions_.memory_bytes() +
+         coords_.capacity() * sizeof(Eigen::Vector3i) +
          last_frame_.capacity() * sizeof(std::uint32_t);
 }
 

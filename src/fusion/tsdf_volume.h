@@ -168,6 +168,14 @@ class TsdfVolume {
   int allocate_block(const Eigen::Vector3i& block);
   /// The voxel at global voxel coordinates, or nullptr when its block is not allocated.
   const Voxel* find_voxel(const Eigen::Vector3i& voxel) const;
+  /// True when any block of the region (kRegionBlocks^3 blocks: region r holds blocks
+  /// kRegionBlocks * r .. kRegionBlocks * r + kRegionBlocks - 1 per axis) is allocated. Lets rays
+  /// cross empty space a region, not a block, at a time.
+  bool region_allocated(const Eigen::Vector3i& region) const {
+    return regions_.find(pack(region)) >= 0;
+  }
+  /// Blocks per region edge (a power of two).
+  static constexpr int kRegionBlocks = 4;
 
   VoxelBlock& block(int index) { return chunks_[index >> kChunkBits][index & kChunkMask]; }
   const VoxelBlock& block(int index) const {
@@ -231,6 +239,7 @@ class TsdfVolume {
   bool capacity_reached_ = false;
 
   BlockHashMap map_;
+  BlockHashMap regions_;  ///< the regions holding a block (value: the first block's index)
   std::vector<std::unique_ptr<VoxelBlock[]>> chunks_;
   std::vector<Eigen::Vector3i> coords_;
   std::vector<std::uint32_t> last_frame_;  ///< per block: integrate() call that last listed it
@@ -271,6 +280,21 @@ class TsdfSampler {
       c.block = index >= 0 ? &volume_.block(index) : nullptr;
     }
     return c.block;
+  }
+
+  /// True when no block of region (rx, ry, rz) is allocated (see TsdfVolume::region_allocated).
+  /// The last answer is cached.
+  bool region_empty(int rx, int ry, int rz) {
+    if (!region_.valid || region_.x != rx || region_.y != ry || region_.z != rz) {
+      region_.valid = true;
+      region_.x = rx;
+      region_.y = ry;
+      region_.z = rz;
+      const Eigen::Vector3i r(rx, ry, rz);
+      region_.empty =
+          !(r.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord && volume_.region_allocated(r));
+    }
+    return region_.empty;
   }
 
   /// Trilinear TSDF at position g (voxel units); false when any of the 8 voxels around g is
@@ -369,8 +393,14 @@ class TsdfSampler {
     int x = 0, y = 0, z = 0;
     const VoxelBlock* block = nullptr;
   };
+  struct RegionSlot {
+    bool valid = false;
+    int x = 0, y = 0, z = 0;
+    bool empty = true;
+  };
   const TsdfVolume& volume_;
   Slot cache_[8];
+  RegionSlot region_;
 };
 
 }  // namespace aoscan

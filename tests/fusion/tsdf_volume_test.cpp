@@ -318,6 +318,30 @@ TEST(TsdfVolume, BadInputNeverCrashes) {
   EXPECT_THROW(TsdfVolume{config}, Error);
 }
 
+TEST(TsdfVolume, RegionsTrackTheAllocatedBlocks) {
+  // Region r holds blocks 4r .. 4r + 3 per axis (floor division for negative coordinates).
+  TsdfVolume volume(default_fusion());
+  EXPECT_FALSE(volume.region_allocated({0, 0, 0}));
+  ASSERT_GE(volume.allocate_block({5, -3, 9}), 0);
+  ASSERT_GE(volume.allocate_block({-1, -4, -5}), 0);
+  EXPECT_TRUE(volume.region_allocated({1, -1, 2}));
+  EXPECT_TRUE(volume.region_allocated({-1, -1, -2}));
+  for (const Eigen::Vector3i& empty :
+       {Eigen::Vector3i(0, 0, 0), Eigen::Vector3i(1, -1, 1), Eigen::Vector3i(2, -1, 2),
+        Eigen::Vector3i(1, 0, 2), Eigen::Vector3i(-1, -2, -2), Eigen::Vector3i(0, -1, -2)})
+    EXPECT_FALSE(volume.region_allocated(empty)) << empty.transpose();
+  // The sampler's answer, cached or not, is the volume's.
+  TsdfSampler sampler(volume);
+  EXPECT_FALSE(sampler.region_empty(1, -1, 2));
+  EXPECT_FALSE(sampler.region_empty(1, -1, 2));
+  EXPECT_TRUE(sampler.region_empty(1, -1, 1));
+  EXPECT_FALSE(sampler.region_empty(-1, -1, -2));
+  EXPECT_TRUE(sampler.region_empty(TsdfVolume::kMaxBlockCoord + 1, 0, 0));
+  volume.reset();
+  EXPECT_FALSE(volume.region_allocated({1, -1, 2}));
+  EXPECT_EQ(volume.block_count(), 0);
+}
+
 TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
   TsdfVolume volume(default_fusion());
   // Write a linear field tsdf = kSlope * x, exact in the voxels' fixed point (320 steps per
