@@ -326,11 +326,30 @@ class TsdfSampler {
       }
       return true;
     }
-    const int d[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    // A neighbour across a block border: every axis has one neighbour in the voxel's own block,
+    // so without that block there is no gradient; the blocks across are found once each.
+    const VoxelBlock* own = find(x >> 3, y >> 3, z >> 3);
+    if (own == nullptr) return false;
+    const int b[3] = {x >> 3, y >> 3, z >> 3};
+    const int l[3] = {x & 7, y & 7, z & 7};
+    const int local = voxel_index(l[0], l[1], l[2]);
+    constexpr int kStride[3] = {1, kBlockSize, kBlockSize * kBlockSize};
     for (int axis = 0; axis < 3; ++axis) {
-      const Voxel* p = voxel(x + d[axis][0], y + d[axis][1], z + d[axis][2]);
-      const Voxel* m = voxel(x - d[axis][0], y - d[axis][1], z - d[axis][2]);
-      if (p == nullptr || m == nullptr || p->count == 0 || m->count == 0) return false;
+      const int step = kStride[axis];
+      const Voxel* p = l[axis] == 7 ? nullptr : &own->voxels[local + step];
+      const Voxel* m = l[axis] == 0 ? nullptr : &own->voxels[local - step];
+      if (p == nullptr || m == nullptr) {
+        int n[3] = {b[0], b[1], b[2]};
+        n[axis] += p == nullptr ? 1 : -1;
+        const VoxelBlock* across = find(n[0], n[1], n[2]);
+        if (across == nullptr) return false;
+        // The neighbour's local coordinate on this axis wraps to 0 (from 7) or 7 (from 0).
+        if (p == nullptr)
+          p = &across->voxels[local - (kBlockSize - 1) * step];
+        else
+          m = &across->voxels[local + (kBlockSize - 1) * step];
+      }
+      if (p->count == 0 || m->count == 0) return false;
       grad[axis] = 0.5f * (p->tsdf() - m->tsdf());
     }
     return true;
@@ -371,10 +390,21 @@ class TsdfSampler {
       }
       return true;
     }
+    // The cell straddles block borders: find each of its (2, 4 or 8) blocks once. Corner
+    // offset d on an axis whose local coordinate is 7 moves to the next block (local 0).
+    const int lx = x & 7, ly = y & 7, lz = z & 7;
+    const int sx = lx == 7, sy = ly == 7, sz = lz == 7;
+    const VoxelBlock* blocks[8] = {};
     for (int i = 0; i < 8; ++i) {
-      const Voxel* v = voxel(x + (i & 1), y + ((i >> 1) & 1), z + (i >> 2));
-      if (v == nullptr || !(v->weight() >= min_weight)) return false;
-      c[i] = v->tsdf();
+      const int dx = i & 1, dy = (i >> 1) & 1, dz = i >> 2;
+      const int j = (dx & sx) | ((dy & sy) << 1) | ((dz & sz) << 2);
+      if (blocks[j] == nullptr) {
+        blocks[j] = find((x >> 3) + (dx & sx), (y >> 3) + (dy & sy), (z >> 3) + (dz & sz));
+        if (blocks[j] == nullptr) return false;
+      }
+      const Voxel& v = blocks[j]->voxels[voxel_index((lx + dx) & 7, (ly + dy) & 7, (lz + dz) & 7)];
+      if (!(v.weight() >= min_weight)) return false;
+      c[i] = v.tsdf();
     }
     return true;
   }
