@@ -11,7 +11,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 
-#include "fusion/icp.h"
+#include "fusion/normal_smoothing.h"
 
 namespace aoscan {
 namespace {

@@ -10,6 +10,7 @@
 
 #include "core/config.h"
 #include "core/pose.h"
+#include "fusion/normal_smoothing.h"
 #include "fusion/point_maps.h"
 #include "fusion/raycast.h"
 
@@ -92,20 +93,6 @@ struct IcpWorkspace {
   std::array<PointMaps, kPyramidLevels> model;
   std::vector<float> smoothing_planes;  ///< scratch of smooth_model_normals()
 };
-
-/// The model maps `in` with every normal replaced by the normalised sum of the normals within
-/// radius_px pixels (a (2 radius_px + 1)^2 window clipped at the image border) whose vertices lie
-/// within max_distance_m of the pixel's own (metres, camera frame): the same surface, not the one
-/// behind a depth jump. Pixels without a vertex or a normal keep a zero normal; vertices and
-/// intrinsics are copied. The result does not depend on the thread count. Multi-threaded over
-/// rows, eight pixels at a time with AVX2 where the window lies inside the image; bit for bit
-/// the result of smooth_model_normals_reference(). `scratch` (the maps as float planes) is
-/// reused between calls.
-void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m, PointMaps& out,
-                          std::vector<float>& scratch);
-/// Plain serial reference of smooth_model_normals().
-void smooth_model_normals_reference(const PointMaps& in, int radius_px, float max_distance_m,
-                                    PointMaps& out);
 
 /// Model maps at half resolution: pixel (x, y) takes the vertex and normal of pixel (2x, 2y);
 /// intrinsics are `in.intrinsics.scaled(1)`. `out`'s buffers are reused.

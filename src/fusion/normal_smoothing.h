@@ -1,12 +1,13 @@
 /// @file normal_smoothing.h
 /// @brief The smoothed normal of one pixel of a vertex and normal map: the normalised sum of the
 /// normals around it on the same surface. Tracking reads the model raycast's normals smoothed
-/// (smooth_model_normals() in icp.h, whole images with AVX2), and so does the SSAO stage at the
+/// (smooth_model_normals() below, whole images with AVX2), and so does the SSAO stage at the
 /// pixels it evaluates.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -14,6 +15,20 @@
 #include "fusion/simd.h"
 
 namespace aoscan {
+
+/// The model maps `in` with every normal replaced by the normalised sum of the normals within
+/// radius_px pixels (a (2 radius_px + 1)^2 window clipped at the image border) whose vertices lie
+/// within max_distance_m of the pixel's own (metres, camera frame): the same surface, not the one
+/// behind a depth jump. Pixels without a vertex or a normal keep a zero normal; vertices and
+/// intrinsics are copied. The result does not depend on the thread count. Multi-threaded over
+/// rows, eight pixels at a time with AVX2 where the window lies inside the image; bit for bit
+/// the result of smooth_model_normals_reference(). `scratch` (the maps as float planes) is
+/// reused between calls.
+void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m, PointMaps& out,
+                          std::vector<float>& scratch);
+/// Plain serial reference of smooth_model_normals().
+void smooth_model_normals_reference(const PointMaps& in, int radius_px, float max_distance_m,
+                                    PointMaps& out);
 
 /// The normalised sum of the normals of the pixels within radius_px of (x, y) (a (2 radius_px +
 /// 1)^2 window clipped at the image border, rows then columns) whose vertices lie within

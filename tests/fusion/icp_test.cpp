@@ -1,6 +1,7 @@
 // Tests for src/fusion/icp.cpp: recovery of known motions against a fused analytic scene,
 // lost / poor detection, reduction determinism, and a short noisy sequence through
-// integrate -> raycast -> icp with its trajectory error.
+// integrate -> raycast -> icp with its trajectory error; the model normal smoothing that tracking
+// reads (normal_smoothing.cpp).
 #include "fusion/icp.h"
 
 #include <cmath>

@@ -113,7 +113,7 @@ inline void render(const Scene& scene, const Intrinsics& k, const Pose& T_world_
       const Eigen::Vector3d ray_c = k.unproject(double(x), double(y), 1.0);
       const Eigen::Vector3d d = (R * ray_c).normalized();
       double t = 0;
-      Eigen::Vector3d n;
+      Eigen::Vector3d n = Eigen::Vector3d::Zero();
       const double e = noise_m > 0 ? noise_m * gauss(rng) : 0.0;
       if (!scene.intersect(T_world_camera.translation(), d, t, n)) continue;
       const double z = t / ray_c.norm() + e;
