@@ -268,33 +268,25 @@ class TsdfSampler {
   /// parity of the coordinates, so the 2x2x2 blocks around any point are all cached at once.
   const VoxelBlock* find(int bx, int by, int bz) {
     const int slot = (bx & 1) | ((by & 1) << 1) | ((bz & 1) << 2);
-    Slot& c = cache_[slot];
-    if (!c.valid || c.x != bx || c.y != by || c.z != bz) {
-      c.valid = true;
-      c.x = bx;
-      c.y = by;
-      c.z = bz;
+    Cached<const VoxelBlock*>& c = cache_[slot];
+    if (!c.holds(bx, by, bz)) {
       const Eigen::Vector3i b(bx, by, bz);
       const int index =
           b.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord ? volume_.find_block(b) : -1;
-      c.block = index >= 0 ? &volume_.block(index) : nullptr;
+      c.value = index >= 0 ? &volume_.block(index) : nullptr;
     }
-    return c.block;
+    return c.value;
   }
 
   /// True when no block of region (rx, ry, rz) is allocated (see TsdfVolume::region_allocated).
   /// The last answer is cached.
   bool region_empty(int rx, int ry, int rz) {
-    if (!region_.valid || region_.x != rx || region_.y != ry || region_.z != rz) {
-      region_.valid = true;
-      region_.x = rx;
-      region_.y = ry;
-      region_.z = rz;
+    if (!region_.holds(rx, ry, rz)) {
       const Eigen::Vector3i r(rx, ry, rz);
-      region_.empty =
+      region_.value =
           !(r.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord && volume_.region_allocated(r));
     }
-    return region_.empty;
+    return region_.value;
   }
 
   /// Trilinear TSDF at position g (voxel units); false when any of the 8 voxels around g is
@@ -418,19 +410,26 @@ class TsdfSampler {
     return c0 + a[2] * (c1 - c0);
   }
 
-  struct Slot {
+  /// One cached answer for integer coordinates (x, y, z).
+  template <typename T>
+  struct Cached {
     bool valid = false;
     int x = 0, y = 0, z = 0;
-    const VoxelBlock* block = nullptr;
-  };
-  struct RegionSlot {
-    bool valid = false;
-    int x = 0, y = 0, z = 0;
-    bool empty = true;
+    T value{};
+    /// True when the answer for (cx, cy, cz) is cached; otherwise takes those coordinates and
+    /// false (the caller then stores the answer in `value`).
+    bool holds(int cx, int cy, int cz) {
+      if (valid && x == cx && y == cy && z == cz) return true;
+      valid = true;
+      x = cx;
+      y = cy;
+      z = cz;
+      return false;
+    }
   };
   const TsdfVolume& volume_;
-  Slot cache_[8];
-  RegionSlot region_;
+  Cached<const VoxelBlock*> cache_[8];
+  Cached<bool> region_;  ///< value: the region is empty
 };
 
 }  // namespace aoscan
