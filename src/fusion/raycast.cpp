@@ -272,12 +272,14 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
     if (v == nullptr) {
       // Jump to where the ray leaves the space whose nearest voxel is in this unallocated
       // block, [8b - 0.5, 8b + 7.5) per axis, or in this empty region of blocks.
+      constexpr int kBlockShift = 3;   // log2(kBlockSize)
       constexpr int kRegionShift = 5;  // log2(kBlockSize * TsdfVolume::kRegionBlocks)
+      static_assert(kBlockSize == 1 << kBlockShift);
       static_assert(kBlockSize * TsdfVolume::kRegionBlocks == 1 << kRegionShift);
       const int shift =
           sampler.region_empty(gx >> kRegionShift, gy >> kRegionShift, gz >> kRegionShift)
               ? kRegionShift
-              : 3;
+              : kBlockShift;
       float s_exit = std::numeric_limits<float>::infinity();
       const int b[3] = {gx >> shift, gy >> shift, gz >> shift};
       for (int a = 0; a < 3; ++a) {
