@@ -14,7 +14,7 @@ namespace aoscan {
 /// What push() does when the queue is full.
 enum class OverflowPolicy {
   kBlock,       ///< wait for room (replay: every frame once, in order)
-  kDropOldest,  ///< discard the oldest queued item and count it (live capture edge)
+  kDropOldest,  ///< discard the oldest queued item and count it (live inputs)
 };
 
 /// Bounded FIFO. After close(), push() refuses new items and pop() drains what is left, then

@@ -43,6 +43,13 @@ class ChainState {
   std::atomic<std::size_t> frames_corrupt{0};
   Clock::time_point start;
   std::atomic<std::int64_t> last_done_ns{0};  ///< since `start`
+  std::vector<const FrameQueue*> live_inputs;  ///< the queues that drop (set before the threads)
+
+  std::size_t frames_dropped() const {
+    std::size_t n = 0;
+    for (const FrameQueue* q : live_inputs) n += q->dropped();
+    return n;
+  }
 
  private:
   mutable std::mutex mutex_;
@@ -123,7 +130,7 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
     }
     // A recording's frame arrives when it is delivered: now (after the pacing, with --realtime).
     if (frame->raw.arrived_at == Clock::time_point{}) frame->raw.arrived_at = Clock::now();
-    frame->frames_dropped_before = out.dropped();
+    frame->frames_dropped_before = state.frames_dropped();
     if (!out.push(std::move(frame))) break;
   }
   out.close();
@@ -188,17 +195,19 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
                             const std::atomic<bool>& stop_requested) {
   ObjectPool<FrameWork> pool;  // declared first: outlives every queue and frame
   ChainState state;
-  const bool drop_at_edge = source.live() || options.realtime;
+  const bool live = source.live() || options.realtime;
 
-  // queues[0] is the capture edge; queues[i] feeds stages[i]. A live edge holds at most one
-  // waiting frame, the newest: when the chain falls behind, a frame never waits behind older ones,
-  // so the capture latency stays within about one camera period (plus scheduling delays).
+  // queues[0] is the capture edge; queues[i] feeds stages[i]. A live input holds at most one
+  // waiting frame, the newest: a frame never waits behind older ones. At the capture edge that
+  // keeps the capture latency within about one camera period (plus scheduling delays); in front of
+  // the slowest stage it keeps the stages before it, and so the capture edge, from blocking on it.
   std::vector<std::unique_ptr<FrameQueue>> queues;
   for (std::size_t i = 0; i < stages.size(); ++i) {
-    const bool live_edge = i == 0 && drop_at_edge;
+    const bool live_input = live && (i == 0 || stages[i].takes_newest);
     queues.push_back(std::make_unique<FrameQueue>(
-        live_edge ? kLiveEdgeCapacity : options.queue_capacity,
-        live_edge ? OverflowPolicy::kDropOldest : OverflowPolicy::kBlock));
+        live_input ? kLiveEdgeCapacity : options.queue_capacity,
+        live_input ? OverflowPolicy::kDropOldest : OverflowPolicy::kBlock));
+    if (live_input) state.live_inputs.push_back(queues.back().get());
   }
 
   std::optional<std::size_t> expected = source.size();
@@ -233,7 +242,8 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
   result.counters.frames_read = state.frames_read.load();
   result.counters.frames_processed = state.frames_processed.load();
   result.counters.frames_corrupt = state.frames_corrupt.load();
-  result.counters.frames_dropped = queues.empty() ? 0 : queues[0]->dropped();
+  result.counters.frames_dropped = state.frames_dropped();
+  for (const auto& q : queues) result.counters.frames_dropped_at.push_back(q->dropped());
   result.wall_s = static_cast<double>(state.last_done_ns.load()) * 1e-9;
   return result;
 }

@@ -2,8 +2,10 @@
 /// @brief The stage thread chain: capture → preprocess → … with bounded queues between stages.
 ///
 /// Replay blocks at every queue (every frame once, in order, deterministic). Live sources and
-/// `--realtime` replay drop the oldest frame at the capture edge, and only there. The first error
-/// in any stage stops the whole chain: upstream stops producing, downstream finishes what it has.
+/// `--realtime` replay keep only the newest waiting frame at the capture edge and at the input of
+/// a stage that takes the newest frame (the track stage): the stages in front of it keep up with
+/// the camera, so the capture edge never waits behind them. The first error in any stage stops
+/// the whole chain: upstream stops producing, downstream finishes what it has.
 #pragma once
 
 #include <atomic>
@@ -42,7 +44,7 @@ struct FrameWork {
   /// Milliseconds this frame spent in each step: [0] = capture (read), [i] = the i-th StageDef,
   /// filled as it passes (for the HUD; StageStats keep the run's statistics).
   std::vector<double> stage_ms;
-  std::size_t frames_dropped_before = 0;  ///< capture-edge drops counted when this frame was queued
+  std::size_t frames_dropped_before = 0;  ///< live drops counted when this frame was queued
   bool integration_paused = false;  ///< the track stage tracked this frame without integrating it
   bool model_reset = false;         ///< the track stage started a new model with this frame
   /// Only while a view consumer exists: AO from the MVAO grid at each raycast pixel's world point,
@@ -61,13 +63,21 @@ struct FrameWork {
 struct StageDef {
   std::string name;
   std::function<Status(FrameWork&)> process;
+  /// Live (live source or `--realtime`): the stage's input holds one frame, and a newer frame
+  /// replaces a waiting one (counted in frames_dropped). For the stage that cannot keep up with
+  /// the camera: frames are dropped in front of it rather than at the capture edge, so the faster
+  /// stages before it go on taking every frame as it arrives. The first stage's input, the capture
+  /// edge, always works this way in live mode.
+  bool takes_newest = false;
 };
 
 /// Counts over one run.
 struct PipelineCounters {
   std::size_t frames_read = 0;       ///< frames the source delivered
   std::size_t frames_processed = 0;  ///< frames that went through every stage
-  std::size_t frames_dropped = 0;    ///< dropped at the capture edge (live / realtime)
+  std::size_t frames_dropped = 0;    ///< dropped live: at the capture edge and takes_newest inputs
+  /// Per stage (in chain order): frames dropped at its input; only live inputs drop.
+  std::vector<std::size_t> frames_dropped_at;
   std::size_t frames_corrupt = 0;    ///< unreadable frames skipped
   std::size_t frames_tracking_lost = 0;
 };
@@ -79,7 +89,7 @@ struct Progress {
   double elapsed_s = 0.0;
 };
 
-/// Frames the capture edge holds for live sources and `--realtime` replay (drop-oldest).
+/// Frames a live input holds (the capture edge and a takes_newest stage's input; drop-oldest).
 constexpr std::size_t kLiveEdgeCapacity = 1;
 
 struct PipelineOptions {
@@ -87,7 +97,7 @@ struct PipelineOptions {
   bool realtime = false;  ///< pace replay by the recorded timestamps and drop like a live camera
   bool strict = false;    ///< a corrupt frame ends the run with exit 3 instead of a counted skip
   /// Frames buffered between two stages, and at the capture edge of a replay without
-  /// `--realtime` (blocking). A live edge always holds kLiveEdgeCapacity.
+  /// `--realtime` (blocking). A live input always holds kLiveEdgeCapacity.
   std::size_t queue_capacity = 4;
   std::function<void(const Progress&)> on_progress;  ///< called by the last stage, may be empty
 };

@@ -20,7 +20,8 @@ std::vector<StageDef> Processing::stages() {
   return {
       {"preprocess", [this](FrameWork& frame) { return preprocess(frame); }},
       {"filter", [this](FrameWork& frame) { return filter(frame); }},
-      {"track", [this](FrameWork& frame) { return track(frame); }},
+      // Live, tracking alone can fall behind the camera: frames are dropped in front of it.
+      {"track", [this](FrameWork& frame) { return track(frame); }, /*takes_newest=*/true},
       {"ssao", [this](FrameWork& frame) { return ssao(frame); }},
       {"mvao", [this](FrameWork& frame) { return mvao(frame); }},
   };

@@ -187,6 +187,11 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["frames_read"] = c.frames_read;
   j["frames_processed"] = c.frames_processed;
   j["frames_dropped"] = c.frames_dropped;
+  // Where the live drops happened: at the input of each stage (the capture edge is the first's).
+  nlohmann::json dropped_at = nlohmann::json::object();
+  for (std::size_t i = 0; i < c.frames_dropped_at.size() && i + 1 < r.pipeline.stages.size(); ++i)
+    dropped_at[r.pipeline.stages[i + 1].name()] = c.frames_dropped_at[i];
+  j["frames_dropped_at"] = dropped_at;
   j["frames_corrupt"] = c.frames_corrupt;
   j["frames_tracking_lost"] = c.frames_tracking_lost;
   j["wall_s"] = r.pipeline.wall_s;

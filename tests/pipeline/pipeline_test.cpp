@@ -1,8 +1,10 @@
-// Tests for src/pipeline/pipeline.cpp: dataflow, drops at the capture edge, shutdown, errors.
+// Tests for src/pipeline/pipeline.cpp: dataflow, live drops (capture edge, in front of the slow
+// stage), shutdown, errors.
 #include "pipeline/pipeline.h"
 
 #include <atomic>
 #include <condition_variable>
+#include <future>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -175,6 +177,111 @@ TEST(Pipeline, ReplayEdgeBlocksWithTheConfiguredCapacity) {
       run_pipeline(source, {first.stage("first", 2ms), after.stage("after")}, options, stop);
   EXPECT_EQ(r.counters.frames_dropped, 0u);
   EXPECT_EQ(after.seen, (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9}));
+}
+
+/// A live camera that delivers frame k only once the first stage has taken frame k - 1 (taken()),
+/// so that nothing is ever dropped at the capture edge while the first stage keeps taking frames.
+class LockstepCamera : public Source {
+ public:
+  explicit LockstepCamera(std::size_t frames) : frames_(frames) {
+    intrinsics_.width = 8;
+    intrinsics_.height = 6;
+  }
+  Status read(DepthFrame& frame) override {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (next_ >= frames_) return Status::end_of_stream();
+    // A first stage that blocks never takes the previous frame: the read gives up after 10 s.
+    if (!cv_.wait_for(lock, 10s, [this] { return taken_ >= next_; }))
+      return Status::device_lost("the first stage stopped taking frames");
+    frame.depth.resize(intrinsics_.width, intrinsics_.height, 1000);
+    frame.intrinsics = intrinsics_;
+    frame.sequence = next_++;
+    return Status::ok();
+  }
+  /// The first stage has taken a frame.
+  void taken() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++taken_;
+    cv_.notify_all();
+  }
+  /// Waits until the first stage has taken every frame; false after 10 s.
+  bool wait_until_all_taken() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return cv_.wait_for(lock, 10s, [this] { return taken_ >= frames_; });
+  }
+  std::string name() const override { return "lockstep"; }
+  const Intrinsics& intrinsics() const override { return intrinsics_; }
+  double depth_scale() const override { return 1000.0; }
+  bool live() const override { return true; }
+
+ private:
+  std::size_t frames_;
+  std::size_t next_ = 0;
+  std::size_t taken_ = 0;
+  Intrinsics intrinsics_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+};
+
+TEST(Pipeline, LiveDropsHappenInFrontOfTheStageThatTakesTheNewest) {
+  // The slow stage holds frame 0 until the first stage has taken all twelve frames. Its input
+  // keeps only the newest waiting frame, so the first stage never blocks on it: every frame is
+  // taken at the edge as it comes, frames 1..10 are each replaced by the next one in front of the
+  // slow stage, and only frame 11 waits there.
+  constexpr std::size_t kFrames = 12;
+  LockstepCamera camera(kFrames);
+  Recorder first, after;
+  std::vector<std::uint64_t> slow_seen;
+  bool all_taken = false;
+  std::promise<void> slow_started;  // the slow stage has frame 0 before frame 1 comes
+  std::future<void> slow_has_frame_0 = slow_started.get_future();
+  const StageDef first_stage{"first", [&](FrameWork& f) {
+                               if (f.raw.sequence == 1) slow_has_frame_0.wait_for(10s);
+                               camera.taken();
+                               std::lock_guard<std::mutex> lock(first.mutex);
+                               first.seen.push_back(f.raw.sequence);
+                               return Status::ok();
+                             }};
+  StageDef slow{"slow", [&](FrameWork& f) {
+                  if (f.raw.sequence == 0) {
+                    slow_started.set_value();
+                    all_taken = camera.wait_until_all_taken();
+                  }
+                  slow_seen.push_back(f.raw.sequence);
+                  return Status::ok();
+                }};
+  slow.takes_newest = true;
+  PipelineOptions options;
+  options.queue_capacity = 4;
+  std::atomic<bool> stop{false};
+  const PipelineResult r =
+      run_pipeline(camera, {first_stage, slow, after.stage("after")}, options, stop);
+  ASSERT_TRUE(r.status.is_ok()) << r.status.message();
+  EXPECT_TRUE(all_taken) << "the first stage blocked on the slow stage";
+  EXPECT_EQ(first.seen.size(), kFrames);
+  EXPECT_EQ(slow_seen, (std::vector<std::uint64_t>{0, kFrames - 1}));
+  EXPECT_EQ(after.seen, (std::vector<std::uint64_t>{0, kFrames - 1}));
+  EXPECT_EQ(r.counters.frames_dropped, kFrames - 2);
+  EXPECT_EQ(r.counters.frames_dropped_at, (std::vector<std::size_t>{0, kFrames - 2, 0}));
+  EXPECT_EQ(r.capture_latency.samples_ms().size(), kFrames) << "every frame was taken at the edge";
+}
+
+TEST(Pipeline, ReplayBlocksAlsoInFrontOfTheStageThatTakesTheNewest) {
+  // Replay without --realtime drops nothing anywhere: every frame reaches every stage in order.
+  FakeSource source(10);
+  Recorder first, slow_rec, after;
+  StageDef slow = slow_rec.stage("slow", 2ms);
+  slow.takes_newest = true;
+  PipelineOptions options;
+  options.queue_capacity = 1;
+  std::atomic<bool> stop{false};
+  const PipelineResult r =
+      run_pipeline(source, {first.stage("first"), slow, after.stage("after")}, options, stop);
+  const std::vector<std::uint64_t> all{0, 1, 2, 3, 4, 5, 6, 7, 8, 9};
+  EXPECT_EQ(r.counters.frames_dropped, 0u);
+  EXPECT_EQ(r.counters.frames_dropped_at, (std::vector<std::size_t>{0, 0, 0}));
+  EXPECT_EQ(slow_rec.seen, all);
+  EXPECT_EQ(after.seen, all);
 }
 
 TEST(Pipeline, CaptureLatencyStartsWhenTheFrameArrived) {

@@ -33,6 +33,9 @@ TEST(Session, WritesStatsJsonWithTheContractKeys) {
   EXPECT_EQ(j["frames_processed"], 24);
   EXPECT_EQ(j["frames_corrupt"], 1);
   EXPECT_EQ(j["frames_dropped"], 0);
+  const nlohmann::json zero_drops = {
+      {"preprocess", 0}, {"filter", 0}, {"track", 0}, {"ssao", 0}, {"mvao", 0}};
+  EXPECT_EQ(j["frames_dropped_at"], zero_drops);
   // The fake frames are a tiny flat wall; whether ICP keeps them is fusion's business (tested
   // there): here only the counter's presence and range.
   EXPECT_LE(j["frames_tracking_lost"].get<int>(), 24);
