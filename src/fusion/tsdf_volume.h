@@ -382,19 +382,30 @@ class TsdfSampler {
       }
       return true;
     }
-    // The cell straddles block borders: find each of its (2, 4 or 8) blocks once. Corner
-    // offset d on an axis whose local coordinate is 7 moves to the next block (local 0).
+    // The cell straddles block borders: find each of its (2, 4 or 8) blocks once. On an axis
+    // whose local coordinate is 7 the corners at offset 1 lie in the next block, at local 0.
     const int lx = x & 7, ly = y & 7, lz = z & 7;
-    const int sx = lx == 7, sy = ly == 7, sz = lz == 7;
-    const VoxelBlock* blocks[8] = {};
+    const bool sx = lx == 7, sy = ly == 7, sz = lz == 7;
+    const int bx = x >> 3, by = y >> 3, bz = z >> 3;
+    const VoxelBlock* b[8];  // the block of corner i
+    b[0] = find(bx, by, bz);
+    if (b[0] == nullptr) return false;
+    b[1] = sx ? find(bx + 1, by, bz) : b[0];
+    b[2] = sy ? find(bx, by + 1, bz) : b[0];
+    b[4] = sz ? find(bx, by, bz + 1) : b[0];
+    if (b[1] == nullptr || b[2] == nullptr || b[4] == nullptr) return false;
+    b[3] = sy ? (sx ? find(bx + 1, by + 1, bz) : b[2]) : b[1];
+    b[5] = sz ? (sx ? find(bx + 1, by, bz + 1) : b[4]) : b[1];
+    b[6] = sz ? (sy ? find(bx, by + 1, bz + 1) : b[4]) : b[2];
+    if (b[3] == nullptr || b[5] == nullptr || b[6] == nullptr) return false;
+    b[7] = sz ? (sy ? (sx ? find(bx + 1, by + 1, bz + 1) : b[6]) : b[5]) : b[3];
+    if (b[7] == nullptr) return false;
+    // Voxel index parts per axis for offsets 0 and 1 (voxel_index() split by axis).
+    const int ix[2] = {lx, (lx + 1) & 7};
+    const int iy[2] = {ly * kBlockSize, ((ly + 1) & 7) * kBlockSize};
+    const int iz[2] = {lz * kBlockSize * kBlockSize, ((lz + 1) & 7) * kBlockSize * kBlockSize};
     for (int i = 0; i < 8; ++i) {
-      const int dx = i & 1, dy = (i >> 1) & 1, dz = i >> 2;
-      const int j = (dx & sx) | ((dy & sy) << 1) | ((dz & sz) << 2);
-      if (blocks[j] == nullptr) {
-        blocks[j] = find((x >> 3) + (dx & sx), (y >> 3) + (dy & sy), (z >> 3) + (dz & sz));
-        if (blocks[j] == nullptr) return false;
-      }
-      const Voxel& v = blocks[j]->voxels[voxel_index((lx + dx) & 7, (ly + dy) & 7, (lz + dz) & 7)];
+      const Voxel& v = b[i]->voxels[ix[i & 1] + iy[(i >> 1) & 1] + iz[i >> 2]];
       if (!(v.weight() >= min_weight)) return false;
       c[i] = v.tsdf();
     }
