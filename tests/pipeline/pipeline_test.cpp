@@ -226,8 +226,8 @@ class LockstepCamera : public Source {
 TEST(Pipeline, LiveDropsHappenInFrontOfTheStageThatTakesTheNewest) {
   // The slow stage holds frame 0 until the first stage has taken all twelve frames. Its input
   // keeps only the newest waiting frame, so the first stage never blocks on it: every frame is
-  // taken at the edge as it comes, frames 1..10 are each replaced by the next one in front of the
-  // slow stage, and only frame 11 waits there.
+  // taken at the edge as it comes, and in front of the slow stage each frame replaces the one
+  // waiting there.
   constexpr std::size_t kFrames = 12;
   LockstepCamera camera(kFrames);
   Recorder first, after;
@@ -259,10 +259,19 @@ TEST(Pipeline, LiveDropsHappenInFrontOfTheStageThatTakesTheNewest) {
   ASSERT_TRUE(r.status.is_ok()) << r.status.message();
   EXPECT_TRUE(all_taken) << "the first stage blocked on the slow stage";
   EXPECT_EQ(first.seen.size(), kFrames);
-  EXPECT_EQ(slow_seen, (std::vector<std::uint64_t>{0, kFrames - 1}));
-  EXPECT_EQ(after.seen, (std::vector<std::uint64_t>{0, kFrames - 1}));
-  EXPECT_EQ(r.counters.frames_dropped, kFrames - 2);
-  EXPECT_EQ(r.counters.frames_dropped_at, (std::vector<std::size_t>{0, kFrames - 2, 0}));
+  // The first stage counts a frame as taken before it passes it on: the slow stage may wake while
+  // frame 10 still waits in front of it, so it sees {0, 11} or {0, 10, 11}.
+  ASSERT_GE(slow_seen.size(), 2u);
+  EXPECT_LE(slow_seen.size(), 3u);
+  EXPECT_EQ(slow_seen.front(), 0u);
+  EXPECT_EQ(slow_seen.back(), kFrames - 1) << "the newest frame must survive";
+  if (slow_seen.size() == 3) {
+    EXPECT_EQ(slow_seen[1], kFrames - 2);
+  }
+  EXPECT_EQ(after.seen, slow_seen);
+  const std::size_t dropped = kFrames - slow_seen.size();
+  EXPECT_EQ(r.counters.frames_dropped, dropped);
+  EXPECT_EQ(r.counters.frames_dropped_at, (std::vector<std::size_t>{0, dropped, 0}));
   EXPECT_EQ(r.capture_latency.samples_ms().size(), kFrames) << "every frame was taken at the edge";
 }
 
