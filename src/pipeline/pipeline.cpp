@@ -7,6 +7,7 @@
 #include <chrono>
 #include <exception>
 #include <mutex>
+#include <numeric>
 #include <thread>
 
 #include "core/log.h"
@@ -242,8 +243,10 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
   result.counters.frames_read = state.frames_read.load();
   result.counters.frames_processed = state.frames_processed.load();
   result.counters.frames_corrupt = state.frames_corrupt.load();
-  result.counters.frames_dropped = state.frames_dropped();
   for (const auto& q : queues) result.counters.frames_dropped_at.push_back(q->dropped());
+  result.counters.frames_dropped =
+      std::accumulate(result.counters.frames_dropped_at.begin(),
+                      result.counters.frames_dropped_at.end(), std::size_t{0});
   result.wall_s = static_cast<double>(state.last_done_ns.load()) * 1e-9;
   return result;
 }
