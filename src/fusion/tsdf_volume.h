@@ -13,6 +13,10 @@
 
 #include <Eigen/Core>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "core/config.h"
 #include "core/image.h"
 #include "core/intrinsics.h"
@@ -292,6 +296,14 @@ class TsdfSampler {
   /// Trilinear TSDF at position g (voxel units); false when any of the 8 voxels around g is
   /// unallocated or has a weight below `min_weight` (at least "observed once" when 0 < it).
   bool trilinear(const Eigen::Vector3f& g, float& tsdf, float min_weight = 1e-6f) {
+#if defined(__SSE2__)
+    // Counts are integers: for a threshold in (0, 1] "observed" is count != 0, which the
+    // vector read of an in-block cell tests for all eight corners at once.
+    if (min_weight > 0.0f && min_weight <= 1.0f) {
+      const int x = floor_to_int(g.x()), y = floor_to_int(g.y()), z = floor_to_int(g.z());
+      if ((x & 7) != 7 && (y & 7) != 7 && (z & 7) != 7) return in_block_trilinear(g, x, y, z, tsdf);
+    }
+#endif
     float c[8], a[3];
     if (!cell(g, c, a, min_weight)) return false;
     tsdf = interpolate(c, a);
@@ -411,6 +423,40 @@ class TsdfSampler {
     }
     return true;
   }
+#if defined(__SSE2__)
+  /// trilinear() of a cell inside one block with SSE2: the corners are four pairs of adjacent
+  /// voxels (offsets 0, 8, 64 and 72), each voxel a 32-bit lane (tsdf_q low, count high). The
+  /// same float operations as interpolate(), so the same bits as the scalar read.
+  bool in_block_trilinear(const Eigen::Vector3f& g, int x, int y, int z, float& tsdf) {
+    const Voxel* v0 = voxel(x, y, z);
+    if (v0 == nullptr) return false;
+    auto pair = [v0](int offset) {
+      return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(v0 + offset));
+    };
+    const __m128i lo = _mm_unpacklo_epi64(pair(0), pair(8));    // corners 0 1 2 3
+    const __m128i hi = _mm_unpacklo_epi64(pair(64), pair(72));  // corners 4 5 6 7
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i unobserved = _mm_or_si128(_mm_cmpeq_epi32(_mm_srli_epi32(lo, 16), zero),
+                                            _mm_cmpeq_epi32(_mm_srli_epi32(hi, 16), zero));
+    if (_mm_movemask_epi8(unobserved) != 0) return false;
+    const __m128 step = _mm_set1_ps(Voxel::kTsdfStep);
+    const __m128 f_lo =
+        _mm_mul_ps(_mm_cvtepi32_ps(_mm_srai_epi32(_mm_slli_epi32(lo, 16), 16)), step);
+    const __m128 f_hi =
+        _mm_mul_ps(_mm_cvtepi32_ps(_mm_srai_epi32(_mm_slli_epi32(hi, 16), 16)), step);
+    const __m128 even = _mm_shuffle_ps(f_lo, f_hi, _MM_SHUFFLE(2, 0, 2, 0));  // c0 c2 c4 c6
+    const __m128 odd = _mm_shuffle_ps(f_lo, f_hi, _MM_SHUFFLE(3, 1, 3, 1));   // c1 c3 c5 c7
+    const float ax = g.x() - static_cast<float>(x);
+    const float ay = g.y() - static_cast<float>(y);
+    const float az = g.z() - static_cast<float>(z);
+    float l[4];  // c00 c10 c01 c11
+    _mm_storeu_ps(l, _mm_add_ps(even, _mm_mul_ps(_mm_set1_ps(ax), _mm_sub_ps(odd, even))));
+    const float c0 = l[0] + ay * (l[1] - l[0]);
+    const float c1 = l[2] + ay * (l[3] - l[2]);
+    tsdf = c0 + az * (c1 - c0);
+    return true;
+  }
+#endif
   static float interpolate(const float* c, const float* a) {
     const float c00 = c[0] + a[0] * (c[1] - c[0]);
     const float c10 = c[2] + a[0] * (c[3] - c[2]);
