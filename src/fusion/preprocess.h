@@ -50,6 +50,11 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
 void remove_border_outliers(const Image<float>& depth_m, float threshold_m, float threshold_per_m2,
                             Image<float>& out);
 
+/// The baseline-target rows of remove_border_outliers() (SSE2 on x86-64), which run when the CPU
+/// lacks AVX2; the same bits.
+void remove_border_outliers_portable(const Image<float>& depth_m, float threshold_m,
+                                     float threshold_per_m2, Image<float>& out);
+
 /// Plain per-pixel scalar reference of remove_border_outliers() (same contract).
 void remove_border_outliers_reference(const Image<float>& depth_m, float threshold_m,
                                       float threshold_per_m2, Image<float>& out);

@@ -34,11 +34,14 @@ bool bitwise_equal(const Image<float>& a, const Image<float>& b) {
 
 /// Runs both outlier filters, checks they agree bit for bit, returns the fast result.
 Image<float> filter_both(const Image<float>& in, float t, float per_m2 = 0.0f) {
-  Image<float> fast, ref;
+  Image<float> fast, portable, ref;
   remove_border_outliers(in, t, per_m2, fast);
+  remove_border_outliers_portable(in, t, per_m2, portable);
   remove_border_outliers_reference(in, t, per_m2, ref);
   EXPECT_TRUE(bitwise_equal(fast, ref))
       << in.width() << "x" << in.height() << " t=" << t << " per_m2=" << per_m2;
+  EXPECT_TRUE(bitwise_equal(portable, ref))
+      << "portable " << in.width() << "x" << in.height() << " t=" << t << " per_m2=" << per_m2;
   return fast;
 }
 
