@@ -298,10 +298,14 @@ class TsdfSampler {
   bool trilinear(const Eigen::Vector3f& g, float& tsdf, float min_weight = 1e-6f) {
 #if defined(__SSE2__)
     // Counts are integers: for a threshold in (0, 1] "observed" is count != 0, which the
-    // vector read of an in-block cell tests for all eight corners at once.
+    // vector read tests for all eight corners at once. It needs the cell's x pairs in one block.
     if (min_weight > 0.0f && min_weight <= 1.0f) {
       const int x = floor_to_int(g.x()), y = floor_to_int(g.y()), z = floor_to_int(g.z());
-      if ((x & 7) != 7 && (y & 7) != 7 && (z & 7) != 7) return in_block_trilinear(g, x, y, z, tsdf);
+      if ((x & 7) != 7) {
+        const Voxel* pairs[4];
+        if (!x_pairs(x, y, z, pairs)) return false;
+        return pairs_trilinear(pairs, g, x, y, z, tsdf);
+      }
     }
 #endif
     float c[8], a[3];
@@ -424,17 +428,50 @@ class TsdfSampler {
     return true;
   }
 #if defined(__SSE2__)
-  /// trilinear() of a cell inside one block with SSE2: the corners are four pairs of adjacent
-  /// voxels (offsets 0, 8, 64 and 72), each voxel a 32-bit lane (tsdf_q low, count high). The
-  /// same float operations as interpolate(), so the same bits as the scalar read.
-  bool in_block_trilinear(const Eigen::Vector3f& g, int x, int y, int z, float& tsdf) {
-    const Voxel* v0 = voxel(x, y, z);
-    if (v0 == nullptr) return false;
-    auto pair = [v0](int offset) {
-      return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(v0 + offset));
+  /// The first voxels of the cell's four x pairs (corners 0-1, 2-3, 4-5, 6-7) for a cell whose
+  /// x pairs each lie in one block ((x & 7) != 7); false when one of its blocks is missing.
+  bool x_pairs(int x, int y, int z, const Voxel** pairs) {
+    const int ly = y & 7, lz = z & 7;
+    if (ly != 7 && lz != 7) {
+      const Voxel* v0 = voxel(x, y, z);
+      if (v0 == nullptr) return false;
+      pairs[0] = v0;
+      pairs[1] = v0 + 8;
+      pairs[2] = v0 + 64;
+      pairs[3] = v0 + 72;
+      return true;
+    }
+    // Straddling y and/or z: the pair at (dy, dz) lies in block (bx, by + dy, bz + dz) when that
+    // axis straddles, else in the cell's own block.
+    const int bx = x >> 3, by = y >> 3, bz = z >> 3;
+    const bool sy = ly == 7, sz = lz == 7;
+    const VoxelBlock* b00 = find(bx, by, bz);
+    if (b00 == nullptr) return false;
+    const VoxelBlock* b10 = sy ? find(bx, by + 1, bz) : b00;
+    const VoxelBlock* b01 = sz ? find(bx, by, bz + 1) : b00;
+    if (b10 == nullptr || b01 == nullptr) return false;
+    const VoxelBlock* b11 = sy ? (sz ? find(bx, by + 1, bz + 1) : b10) : b01;
+    if (b11 == nullptr) return false;
+    const int ix = x & 7;
+    const int iy[2] = {ly * kBlockSize, ((ly + 1) & 7) * kBlockSize};
+    const int iz[2] = {lz * kBlockSize * kBlockSize, ((lz + 1) & 7) * kBlockSize * kBlockSize};
+    pairs[0] = &b00->voxels[ix + iy[0] + iz[0]];
+    pairs[1] = &b10->voxels[ix + iy[1] + iz[0]];
+    pairs[2] = &b01->voxels[ix + iy[0] + iz[1]];
+    pairs[3] = &b11->voxels[ix + iy[1] + iz[1]];
+    return true;
+  }
+
+  /// trilinear() of the cell at (x, y, z) from its four x pairs with SSE2: each voxel a 32-bit
+  /// lane (tsdf_q low, count high). The same float operations as interpolate(), so the same bits
+  /// as the scalar read.
+  static bool pairs_trilinear(const Voxel* const* pairs, const Eigen::Vector3f& g, int x, int y,
+                              int z, float& tsdf) {
+    auto pair = [pairs](int k) {
+      return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(pairs[k]));
     };
-    const __m128i lo = _mm_unpacklo_epi64(pair(0), pair(8));    // corners 0 1 2 3
-    const __m128i hi = _mm_unpacklo_epi64(pair(64), pair(72));  // corners 4 5 6 7
+    const __m128i lo = _mm_unpacklo_epi64(pair(0), pair(1));  // corners 0 1 2 3
+    const __m128i hi = _mm_unpacklo_epi64(pair(2), pair(3));  // corners 4 5 6 7
     const __m128i zero = _mm_setzero_si128();
     const __m128i unobserved = _mm_or_si128(_mm_cmpeq_epi32(_mm_srli_epi32(lo, 16), zero),
                                             _mm_cmpeq_epi32(_mm_srli_epi32(hi, 16), zero));
