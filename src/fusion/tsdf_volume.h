@@ -387,81 +387,76 @@ class TsdfSampler {
     a[0] = g.x() - fx;
     a[1] = g.y() - fy;
     a[2] = g.z() - fz;
-    if ((x & 7) != 7 && (y & 7) != 7 && (z & 7) != 7) {
-      const Voxel* v0 = voxel(x, y, z);
-      if (v0 == nullptr) return false;
-      constexpr int kOffsets[8] = {0, 1, 8, 9, 64, 65, 72, 73};
+    if ((x & 7) != 7) {
+      const Voxel* pairs[4];
+      if (!x_pairs(x, y, z, pairs)) return false;
       for (int i = 0; i < 8; ++i) {
-        const Voxel& v = v0[kOffsets[i]];
+        const Voxel& v = pairs[i >> 1][i & 1];
         if (!(v.weight() >= min_weight)) return false;
         c[i] = v.tsdf();
       }
       return true;
     }
-    // The cell straddles block borders: find each of its (2, 4 or 8) blocks once. On an axis
-    // whose local coordinate is 7 the corners at offset 1 lie in the next block, at local 0.
-    const int lx = x & 7, ly = y & 7, lz = z & 7;
-    const bool sx = lx == 7, sy = ly == 7, sz = lz == 7;
-    const int bx = x >> 3, by = y >> 3, bz = z >> 3;
-    const VoxelBlock* b[8];  // the block of corner i
-    b[0] = find(bx, by, bz);
-    if (b[0] == nullptr) return false;
-    b[1] = sx ? find(bx + 1, by, bz) : b[0];
-    b[2] = sy ? find(bx, by + 1, bz) : b[0];
-    b[4] = sz ? find(bx, by, bz + 1) : b[0];
-    if (b[1] == nullptr || b[2] == nullptr || b[4] == nullptr) return false;
-    b[3] = sy ? (sx ? find(bx + 1, by + 1, bz) : b[2]) : b[1];
-    b[5] = sz ? (sx ? find(bx + 1, by, bz + 1) : b[4]) : b[1];
-    b[6] = sz ? (sy ? find(bx, by + 1, bz + 1) : b[4]) : b[2];
-    if (b[3] == nullptr || b[5] == nullptr || b[6] == nullptr) return false;
-    b[7] = sz ? (sy ? (sx ? find(bx + 1, by + 1, bz + 1) : b[6]) : b[5]) : b[3];
-    if (b[7] == nullptr) return false;
-    // Voxel index parts per axis for offsets 0 and 1 (voxel_index() split by axis).
-    const int ix[2] = {lx, (lx + 1) & 7};
-    const int iy[2] = {ly * kBlockSize, ((ly + 1) & 7) * kBlockSize};
-    const int iz[2] = {lz * kBlockSize * kBlockSize, ((lz + 1) & 7) * kBlockSize * kBlockSize};
-    for (int i = 0; i < 8; ++i) {
-      const Voxel& v = b[i]->voxels[ix[i & 1] + iy[(i >> 1) & 1] + iz[i >> 2]];
-      if (!(v.weight() >= min_weight)) return false;
-      c[i] = v.tsdf();
+    // The cell straddles an x block border: its even corners lie at local x 7 of the block
+    // column bx, its odd ones at local x 0 of column bx + 1.
+    const int ly = y & 7, lz = z & 7;
+    const bool sy = ly == 7, sz = lz == 7;
+    const VoxelBlock* left[4];
+    const VoxelBlock* right[4];
+    if (!yz_blocks(x >> 3, y >> 3, z >> 3, sy, sz, left) ||
+        !yz_blocks((x >> 3) + 1, y >> 3, z >> 3, sy, sz, right))
+      return false;
+    for (int k = 0; k < 4; ++k) {
+      const int yz = yz_offset(ly, lz, k);
+      const Voxel& v0 = left[k]->voxels[kBlockSize - 1 + yz];
+      const Voxel& v1 = right[k]->voxels[yz];
+      if (!(v0.weight() >= min_weight) || !(v1.weight() >= min_weight)) return false;
+      c[2 * k] = v0.tsdf();
+      c[2 * k + 1] = v1.tsdf();
     }
     return true;
   }
-#if defined(__SSE2__)
-  /// The first voxels of the cell's four x pairs (corners 0-1, 2-3, 4-5, 6-7) for a cell whose
-  /// x pairs each lie in one block ((x & 7) != 7); false when one of its blocks is missing.
+
+  /// The blocks of a cell's four x pairs in the block column bx (pair k lies at dy = k & 1 and
+  /// dz = k >> 1): block (bx, by + dy, bz + dz) on the axes that straddle (sy, sz), else
+  /// (bx, by, bz), each found once. False when one of them is missing.
+  bool yz_blocks(int bx, int by, int bz, bool sy, bool sz, const VoxelBlock** out) {
+    out[0] = find(bx, by, bz);
+    if (out[0] == nullptr) return false;
+    out[1] = sy ? find(bx, by + 1, bz) : out[0];
+    out[2] = sz ? find(bx, by, bz + 1) : out[0];
+    if (out[1] == nullptr || out[2] == nullptr) return false;
+    out[3] = sy ? (sz ? find(bx, by + 1, bz + 1) : out[1]) : out[2];
+    return out[3] != nullptr;
+  }
+
+  /// The y and z parts of the voxel index of pair k's voxels (local coordinates ly, lz of the
+  /// cell's first corner; the next one wraps to 0 in the next block).
+  static int yz_offset(int ly, int lz, int k) {
+    return ((ly + (k & 1)) & 7) * kBlockSize + ((lz + (k >> 1)) & 7) * kBlockSize * kBlockSize;
+  }
+
+  /// The first voxels of the four x pairs (corners 0-1, 2-3, 4-5, 6-7) of the cell at (x, y, z),
+  /// whose pairs each lie in one block ((x & 7) != 7): one block, or two or four when the cell
+  /// straddles y or z block borders, each found once. False when one of them is missing.
   bool x_pairs(int x, int y, int z, const Voxel** pairs) {
     const int ly = y & 7, lz = z & 7;
     if (ly != 7 && lz != 7) {
       const Voxel* v0 = voxel(x, y, z);
       if (v0 == nullptr) return false;
       pairs[0] = v0;
-      pairs[1] = v0 + 8;
-      pairs[2] = v0 + 64;
-      pairs[3] = v0 + 72;
+      pairs[1] = v0 + kBlockSize;
+      pairs[2] = v0 + kBlockSize * kBlockSize;
+      pairs[3] = v0 + kBlockSize + kBlockSize * kBlockSize;
       return true;
     }
-    // Straddling y and/or z: the pair at (dy, dz) lies in block (bx, by + dy, bz + dz) when that
-    // axis straddles, else in the cell's own block.
-    const int bx = x >> 3, by = y >> 3, bz = z >> 3;
-    const bool sy = ly == 7, sz = lz == 7;
-    const VoxelBlock* b00 = find(bx, by, bz);
-    if (b00 == nullptr) return false;
-    const VoxelBlock* b10 = sy ? find(bx, by + 1, bz) : b00;
-    const VoxelBlock* b01 = sz ? find(bx, by, bz + 1) : b00;
-    if (b10 == nullptr || b01 == nullptr) return false;
-    const VoxelBlock* b11 = sy ? (sz ? find(bx, by + 1, bz + 1) : b10) : b01;
-    if (b11 == nullptr) return false;
-    const int ix = x & 7;
-    const int iy[2] = {ly * kBlockSize, ((ly + 1) & 7) * kBlockSize};
-    const int iz[2] = {lz * kBlockSize * kBlockSize, ((lz + 1) & 7) * kBlockSize * kBlockSize};
-    pairs[0] = &b00->voxels[ix + iy[0] + iz[0]];
-    pairs[1] = &b10->voxels[ix + iy[1] + iz[0]];
-    pairs[2] = &b01->voxels[ix + iy[0] + iz[1]];
-    pairs[3] = &b11->voxels[ix + iy[1] + iz[1]];
+    const VoxelBlock* blocks[4];
+    if (!yz_blocks(x >> 3, y >> 3, z >> 3, ly == 7, lz == 7, blocks)) return false;
+    for (int k = 0; k < 4; ++k) pairs[k] = &blocks[k]->voxels[(x & 7) + yz_offset(ly, lz, k)];
     return true;
   }
 
+#if defined(__SSE2__)
   /// trilinear() of the cell at (x, y, z) from its four x pairs with SSE2: each voxel a 32-bit
   /// lane (tsdf_q low, count high). The same float operations as interpolate(), so the same bits
   /// as the scalar read.
