@@ -56,6 +56,30 @@ TEST(TrajectoryEval, KnownOffsetGivesKnownErrors) {
   EXPECT_NEAR(rpe.translation_rmse_m, 0.02, 1e-9);
 }
 
+TEST(TrajectoryEval, FirstPoseAlignmentIsTheFirstPairsExactMap) {
+  // A straight sweep along x: positions on a line leave the rotation about it to noise, but the
+  // first pair fixes the map whatever the later poses do.
+  std::vector<StampedPose> truth;
+  for (int i = 0; i < 60; ++i) truth.push_back({i / 30.0, pose(0.1, {0.02 * i, 2.6, 1.5})});
+  const Pose offset =
+      Pose(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, -2, 1).normalized()).toRotationMatrix(),
+           {-1.0, 0.5, 0.25});
+  std::vector<StampedPose> estimate = truth;
+  for (std::size_t i = 0; i < estimate.size(); ++i) {
+    const Eigen::Vector3d drift(0, 0.001 * std::sin(0.3 * i), i % 2 ? 0.002 : -0.002);
+    estimate[i].T_world_camera = offset * Pose(truth[i].T_world_camera.rotation(),
+                                               truth[i].T_world_camera.translation() +
+                                                   (i == 0 ? Eigen::Vector3d::Zero() : drift));
+  }
+  const AssociatedPoses poses = associate_poses(truth, estimate);
+  EXPECT_TRUE((first_pose_alignment(poses) * offset).matrix().isIdentity(1e-12));
+  EXPECT_TRUE(first_pose_alignment(AssociatedPoses{}).matrix().isIdentity(0.0));
+  // Two pairs cannot fix a rotation by least squares: ATE falls back to the first pair.
+  const AssociatedPoses two = {{estimate[0].T_world_camera, estimate[1].T_world_camera},
+                               {truth[0].T_world_camera, truth[1].T_world_camera}};
+  EXPECT_TRUE((compute_ate(two).T_truth_estimate * offset).matrix().isIdentity(1e-12));
+}
+
 TEST(TrajectoryEval, AssociationDropsUnmatchedTimestamps) {
   const auto truth = path(10);
   std::vector<StampedPose> estimate = {truth[2], truth[5]};

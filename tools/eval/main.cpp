@@ -37,8 +37,9 @@ int run(int argc, char** argv) {
   traj->add_option("--max-dt", max_dt, "timestamp association tolerance (s)")->capture_default_str();
 
   CLI::App* mesh = app.add_subcommand(
-      "mesh", "accuracy and completeness of MESH against TRUTH; the estimated trajectory's ATE "
-              "alignment maps MESH into TRUTH's frame");
+      "mesh",
+      "accuracy and completeness of MESH against TRUTH; the first pose pair (default) or "
+      "the ATE alignment maps MESH into TRUTH's frame");
   mesh->add_option("MESH", mesh_path, "reconstructed mesh (aoscan's mesh.ply)")->required()->check(CLI::ExistingFile);
   mesh->add_option("TRUTH", truth_mesh_path, "ground-truth mesh (a synthetic recording's scene.ply)")
       ->required()->check(CLI::ExistingFile);
@@ -48,8 +49,10 @@ int run(int argc, char** argv) {
   mesh->add_option("--threshold", threshold, "completeness distance (m)")->capture_default_str();
 
   CLI::App* ao = app.add_subcommand(
-      "ao", "Pearson r of MESH's per-vertex AO against ray-traced obscurance (Eq. 1) on the exact "
-            "geometry of a synthetic scene; the trajectory's ATE alignment maps MESH into it");
+      "ao",
+      "Pearson r of MESH's per-vertex AO against ray-traced obscurance (Eq. 1) on the exact "
+      "geometry of a synthetic scene; the first pose pair (default) or the ATE alignment "
+      "maps MESH into it");
   ao->add_option("MESH", mesh_path, "mesh.ply with quality = AO")->required()->check(CLI::ExistingFile);
   ao->add_option("--scene", scene_name, "synthetic scene name (corner, room, plane)")->required();
   ao->add_option("--groundtruth", gt_path, "ground-truth trajectory")->required()->check(CLI::ExistingFile);
@@ -59,6 +62,15 @@ int run(int argc, char** argv) {
   std::string dump_path;
   ao->add_option("--dump", dump_path,
                  "write the compared vertices as CSV: x,y,z (scene frame, m),mesh_ao,reference");
+
+  std::string alignment = "first";
+  for (CLI::App* sub : {mesh, ao})
+    sub->add_option("--alignment", alignment,
+                    "how MESH is mapped into the truth's frame: 'first' (the ground-truth pose of "
+                    "the estimate's first frame, whose camera frame is aoscan's world frame; "
+                    "nothing fitted) or 'ate' (the trajectory's least-squares alignment)")
+        ->check(CLI::IsMember({"first", "ate"}))
+        ->capture_default_str();
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -72,6 +84,12 @@ int run(int argc, char** argv) {
     out["ate_median_m"] = ate.median_m;
     out["ate_max_m"] = ate.max_m;
     out["alignment"] = "rigid (rotation + translation, no scale), least squares on positions";
+    const bool first = alignment == "first";
+    const Pose T_truth_mesh = first ? first_pose_alignment(poses) : ate.T_truth_estimate;
+    const char* mesh_alignment =
+        first ? "first pose pair (the world frame is the first frame's camera frame)"
+              : "ATE alignment (least squares on positions)";
+    if (!*traj) out["mesh_alignment"] = mesh_alignment;
     if (*traj) {
       const RpeResult rpe = compute_rpe(poses, delta);
       out["rpe_delta_frames"] = delta;
@@ -87,7 +105,7 @@ int run(int argc, char** argv) {
       }
     } else if (*ao) {
       const AoEvalResult a = evaluate_mesh_ao(read_ply(mesh_path), AnalyticScene::make(scene_name),
-                                              ate.T_truth_estimate, t_max, max_vertices);
+                                              T_truth_mesh, t_max, max_vertices);
       out["ao_vertices"] = a.vertices;
       out["ao_off_surface"] = a.off_surface;
       out["ao_pearson_r"] = a.pearson_r;
@@ -96,14 +114,16 @@ int run(int argc, char** argv) {
       out["ao_mean_reference"] = a.mean_reference;
       if (!dump_path.empty()) write_ao_pairs_csv(dump_path, a);
       if (!json) {
-        std::printf("vertices compared   %zu (%zu farther than 2 cm from the scene skipped)\n",
-                    a.vertices, a.off_surface);
+        std::printf(
+            "vertices compared   %zu (%zu farther than 2 cm from the scene skipped; mapped by "
+            "the %s)\n",
+            a.vertices, a.off_surface, mesh_alignment);
         std::printf("AO Pearson r        %.3f (rmse %.3f; mean %.3f vs reference %.3f)\n", a.pearson_r,
                     a.rmse, a.mean_mesh, a.mean_reference);
       }
     } else {
       const MeshEvalResult m = evaluate_mesh(read_ply(mesh_path), read_ply(truth_mesh_path),
-                                             ate.T_truth_estimate, max_distance, threshold);
+                                             T_truth_mesh, max_distance, threshold);
       out["vertices"] = m.vertices;
       out["accuracy_mean_m"] = m.accuracy_mean_m;
       out["accuracy_median_m"] = m.accuracy_median_m;
@@ -112,8 +132,8 @@ int run(int argc, char** argv) {
       out["completeness"] = m.completeness;
       out["completeness_threshold_m"] = threshold;
       if (!json) {
-        std::printf("vertices            %zu (aligned by the trajectory, ATE %.2f mm)\n", m.vertices,
-                    ate.rmse_m * 1e3);
+        std::printf("vertices            %zu (mapped by the %s; trajectory ATE %.2f mm)\n",
+                    m.vertices, mesh_alignment, ate.rmse_m * 1e3);
         std::printf("accuracy            mean %.2f mm, median %.2f mm, p90 %.2f mm\n",
                     m.accuracy_mean_m * 1e3, m.accuracy_median_m * 1e3, m.accuracy_p90_m * 1e3);
         std::printf("outliers            %.3f %% farther than %.0f mm\n", m.outlier_fraction * 100,

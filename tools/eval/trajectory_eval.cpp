@@ -21,6 +21,11 @@ AssociatedPoses associate_poses(const std::vector<StampedPose>& truth,
   return out;
 }
 
+Pose first_pose_alignment(const AssociatedPoses& poses) {
+  if (poses.estimate.empty()) return Pose();
+  return poses.truth[0] * poses.estimate[0].inverse();
+}
+
 AteResult compute_ate(const AssociatedPoses& poses) {
   AteResult r;
   r.pairs = poses.estimate.size();
@@ -32,8 +37,8 @@ AteResult compute_ate(const AssociatedPoses& poses) {
   }
   if (r.pairs >= 3) {
     r.T_truth_estimate = Pose::from_matrix(Eigen::umeyama(est, gt, /*with_scaling=*/false));
-  } else {  // too few points to fix a rotation: align the first poses
-    r.T_truth_estimate = poses.truth[0] * poses.estimate[0].inverse();
+  } else {  // too few points to fix a rotation
+    r.T_truth_estimate = first_pose_alignment(poses);
   }
   std::vector<double> errors(r.pairs);
   double sum_sq = 0, sum = 0;

@@ -27,6 +27,12 @@ struct AteResult {
   Pose T_truth_estimate;  ///< the rigid alignment applied to the estimate
 };
 
+/// The map of the first pose pair, T_truth[0] * T_estimate[0]^-1. aoscan's world frame is the
+/// first tracked frame's camera frame (the contract), so this maps its mesh into the truth's frame
+/// exactly, with nothing fitted; drift after that frame stays visible. Identity when `poses` is
+/// empty.
+Pose first_pose_alignment(const AssociatedPoses& poses);
+
 /// Absolute trajectory error of camera positions after the least-squares rigid alignment
 /// (Horn / Umeyama without scale) of the estimate onto the truth.
 AteResult compute_ate(const AssociatedPoses& poses);
