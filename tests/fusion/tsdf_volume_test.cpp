@@ -344,14 +344,15 @@ TEST(TsdfVolume, RegionsTrackTheAllocatedBlocks) {
 
 /// trilinear() and nearest_gradient() computed voxel by voxel through find_voxel(): the plain
 /// reference of the sampler's block-cached reads.
-bool reference_trilinear(const TsdfVolume& volume, const Eigen::Vector3f& g, float& tsdf) {
+bool reference_trilinear(const TsdfVolume& volume, const Eigen::Vector3f& g, float& tsdf,
+                         float min_weight = 1e-6f) {
   const Eigen::Vector3i base(static_cast<int>(std::floor(g.x())),
                              static_cast<int>(std::floor(g.y())),
                              static_cast<int>(std::floor(g.z())));
   float c[8];
   for (int i = 0; i < 8; ++i) {
     const Voxel* v = volume.find_voxel(base + Eigen::Vector3i(i & 1, (i >> 1) & 1, i >> 2));
-    if (v == nullptr || v->count == 0) return false;
+    if (v == nullptr || !(v->weight() >= min_weight)) return false;
     c[i] = v->tsdf();
   }
   const Eigen::Vector3f a = g - base.cast<float>();
@@ -397,6 +398,7 @@ TEST(TsdfVolume, SamplerAgreesWithVoxelByVoxelReads) {
       }
   TsdfSampler sampler(volume);
   int found = 0, gradients = 0;
+  int scalar_found[2] = {0, 0};  // min_weight 0, 3
   for (int i = 0; i < 200000; ++i) {
     const Eigen::Vector3f g(static_cast<float>(next() % 2600) / 100.0f - 10.0f,
                             static_cast<float>(next() % 2600) / 100.0f - 10.0f,
@@ -407,6 +409,16 @@ TEST(TsdfVolume, SamplerAgreesWithVoxelByVoxelReads) {
     if (ok) {
       ASSERT_EQ(f, f_ref) << g.transpose();
       ++found;
+    }
+    // Thresholds outside (0, 1] take the scalar eight-voxel read on every build.
+    for (const float min_weight : {0.0f, 3.0f}) {
+      const bool scalar_ok = sampler.trilinear(g, f, min_weight);
+      ASSERT_EQ(scalar_ok, reference_trilinear(volume, g, f_ref, min_weight))
+          << g.transpose() << " min_weight " << min_weight;
+      if (scalar_ok) {
+        ASSERT_EQ(f, f_ref) << g.transpose() << " min_weight " << min_weight;
+        ++scalar_found[min_weight > 0.0f];
+      }
     }
     Eigen::Vector3f grad, grad_ref;
     const bool has = sampler.nearest_gradient(g, grad);
@@ -419,6 +431,10 @@ TEST(TsdfVolume, SamplerAgreesWithVoxelByVoxelReads) {
   // Enough of both answers to mean something (about (6/7)^8 and (6/7)^6 of the covered cells).
   EXPECT_GT(found, 20000);
   EXPECT_GT(gradients, 30000);
+  // Weight 0 accepts every allocated voxel (about 25/27 of the samples fall in covered cells);
+  // weight 3 about (18/35)^8 of them (counts 3-5 of 1-5 on the 6/7 observed).
+  EXPECT_GT(scalar_found[0], found);
+  EXPECT_GT(scalar_found[1], 200);
 }
 
 TEST(TsdfVolume, SamplerReadsVoxelsAcrossBlocks) {
