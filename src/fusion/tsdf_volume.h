@@ -17,6 +17,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "core/block_hash_map.h"
 #include "core/config.h"
 #include "core/image.h"
 #include "core/intrinsics.h"
@@ -89,47 +90,6 @@ struct IntegrateStats {
   int blocks_updated = 0;    ///< blocks whose voxels were updated (the band of this frame)
   int blocks_dropped = 0;    ///< blocks the band needed that the capacity did not allow
   bool skipped = false;      ///< true when the pose was not finite: nothing was done
-};
-
-/// Open-addressing hash map from packed block coordinates to block indices (linear probing,
-/// power-of-two table, grown at half load). Reads are thread-safe; writes are single-threaded.
-class BlockHashMap {
- public:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-
-  /// The index stored for `key`, or -1.
-  int find(std::uint64_t key) const {
-    if (keys_.empty()) return -1;
-    std::size_t slot = hash(key) & mask_;
-    while (true) {
-      const std::uint64_t k = keys_[slot];
-      if (k == key) return values_[slot];
-      if (k == kEmpty) return -1;
-      slot = (slot + 1) & mask_;
-    }
-  }
-  /// Stores `value` for a key that is not present yet.
-  void insert(std::uint64_t key, int value);
-  void clear();
-  std::size_t memory_bytes() const {
-    return keys_.capacity() * sizeof(std::uint64_t) + values_.capacity() * sizeof(int);
-  }
-
- private:
-  static std::uint64_t hash(std::uint64_t x) {
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    x ^= x >> 33;
-    return x;
-  }
-  void grow();
-
-  std::vector<std::uint64_t> keys_;
-  std::vector<int> values_;
-  std::size_t mask_ = 0;
-  std::size_t size_ = 0;
 };
 
 /// The sparse TSDF. World coordinates are metres; the centre of voxel g (integer global voxel
