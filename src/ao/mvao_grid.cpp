@@ -1,6 +1,6 @@
 /// @file mvao_grid.cpp
-/// @brief Sparse Morton-keyed MVAO grid: open addressing table, frame integration in the three
-/// modes, trilinear sampling and nearest-observed-cell search.
+/// @brief Sparse Morton-keyed MVAO grid: bricks of 4^3 cells in a pool, frame integration in the
+/// three modes, trilinear sampling and nearest-observed-cell search.
 #include "ao/mvao_grid.h"
 
 #include <algorithm>
@@ -11,18 +11,6 @@
 
 namespace aoscan {
 namespace {
-
-constexpr std::size_t kInitialSlots = 1024;
-
-/// splitmix64 finalizer: spreads Morton codes over the table.
-std::uint64_t mix(std::uint64_t v) {
-  v ^= v >> 30;
-  v *= 0xbf58476d1ce4e5b9ull;
-  v ^= v >> 27;
-  v *= 0x94d049bb133111ebull;
-  v ^= v >> 31;
-  return v;
-}
 
 /// floor(v) as a cell coordinate, or nullopt outside the Morton range / not finite.
 std::optional<std::int32_t> to_cell(double v) {
@@ -64,72 +52,54 @@ MvaoGrid MvaoGrid::coarsened(int factor) const {
     return static_cast<std::int32_t>(v >= 0 ? v / f
                                             : -((-static_cast<std::int64_t>(v) + f - 1) / f));
   };
-  // Serial in table order, which is deterministic, so the float sums are too.
-  for (std::size_t i = 0; i < keys_.size(); ++i) {
-    if (keys_[i] == kEmpty || !(cells_[i].weight_sum > 0.0f)) continue;
-    std::int32_t c[3];
-    morton_decode(keys_[i], c[0], c[1], c[2]);
+  // Serial in brick order, which is deterministic, so the float sums are too.
+  for_each_cell([&](const CellIndex& c, const MvaoCell& fine) {
     const auto code = morton_encode(floor_div(c[0]), floor_div(c[1]), floor_div(c[2]));
-    if (!code) continue;  // cannot happen: coarse indices lie inside the fine range
-    MvaoCell& cell = out.insert(*code);
-    cell.ao_weight_sum += cells_[i].ao_weight_sum;
-    cell.weight_sum += cells_[i].weight_sum;
-    cell.last_frame = std::max(cell.last_frame, cells_[i].last_frame);
-  }
+    if (!code) return;  // cannot happen: coarse indices lie inside the fine range
+    // The coarse grid has at most as many bricks as this one, so make_brick() succeeds.
+    const std::int64_t b = out.make_brick(*code >> kBrickBits);
+    if (b < 0) return;
+    MvaoCell& cell = out.brick(static_cast<std::uint32_t>(b)).cells[*code & (kBrickCells - 1)];
+    if (cell.last_frame == 0) ++out.size_;
+    cell.ao_weight_sum += fine.ao_weight_sum;
+    cell.weight_sum += fine.weight_sum;
+    cell.last_frame = std::max(cell.last_frame, fine.last_frame);
+  });
   return out;
 }
 
 void MvaoGrid::clear() {
-  keys_.assign(kInitialSlots, kEmpty);
-  cells_.assign(kInitialSlots, MvaoCell{});
+  index_.clear();
+  chunks_.clear();
+  chunks_.shrink_to_fit();
+  brick_codes_.clear();
+  brick_codes_.shrink_to_fit();
   size_ = 0;
   frames_ = 0;
   points_integrated_ = points_out_of_range_ = points_invalid_ = 0;
 }
 
 std::size_t MvaoGrid::memory_bytes() const {
-  return keys_.capacity() * sizeof(std::uint64_t) + cells_.capacity() * sizeof(MvaoCell);
+  return index_.memory_bytes() + chunks_.size() * (kChunkMask + 1) * sizeof(Brick) +
+         chunks_.capacity() * sizeof(chunks_[0]) + brick_codes_.capacity() * sizeof(std::uint64_t);
 }
 
-std::size_t MvaoGrid::slot_of(std::uint64_t code) const {
-  const std::size_t mask = keys_.size() - 1;
-  std::size_t i = mix(code) & mask;
-  while (keys_[i] != code && keys_[i] != kEmpty) i = (i + 1) & mask;
-  return i;
+std::int64_t MvaoGrid::make_brick(std::uint64_t brick_code) {
+  const int found = index_.find(brick_code);
+  if (found >= 0) return found;
+  const std::uint32_t b = static_cast<std::uint32_t>(brick_codes_.size());
+  if (b >= kMaxBricks) return -1;
+  if ((b & kChunkMask) == 0) chunks_.push_back(std::make_unique<Brick[]>(kChunkMask + 1));
+  brick_codes_.push_back(brick_code);
+  index_.insert(brick_code, static_cast<int>(b));
+  return b;
 }
 
-void MvaoGrid::grow() { rehash(keys_.size() * 2); }
-
-void MvaoGrid::reserve(std::size_t cells) {
-  std::size_t slots = keys_.size();
-  while (2 * cells > slots) slots *= 2;
-  if (slots != keys_.size()) rehash(slots);
-}
-
-void MvaoGrid::rehash(std::size_t slots) {
-  std::vector<std::uint64_t> old_keys(slots, kEmpty);
-  std::vector<MvaoCell> old_cells(slots);
-  old_keys.swap(keys_);
-  old_cells.swap(cells_);
-  for (std::size_t i = 0; i < old_keys.size(); ++i) {
-    if (old_keys[i] == kEmpty) continue;
-    const std::size_t s = slot_of(old_keys[i]);
-    keys_[s] = old_keys[i];
-    cells_[s] = old_cells[i];
-  }
-}
-
-MvaoCell& MvaoGrid::insert(std::uint64_t code) {
-  std::size_t s = slot_of(code);
-  if (keys_[s] == code) return cells_[s];
-  if (2 * (size_ + 1) > keys_.size()) {
-    grow();
-    s = slot_of(code);
-  }
-  keys_[s] = code;
-  cells_[s] = MvaoCell{};
-  ++size_;
-  return cells_[s];
+const MvaoCell* MvaoGrid::find_code(std::uint64_t code) const {
+  const int b = index_.find(code >> kBrickBits);
+  if (b < 0) return nullptr;
+  const MvaoCell& c = brick(static_cast<std::uint32_t>(b)).cells[code & (kBrickCells - 1)];
+  return c.weight_sum > 0.0f ? &c : nullptr;
 }
 
 Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
@@ -144,10 +114,6 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
   const Eigen::Matrix3d R = T_world_camera.rotation();
   const Eigen::Vector3d t = T_world_camera.translation();
   const double inv_cell = inv_cell_size_;
-  // Room for every pixel to start a cell of its own: the table does not grow during the frame,
-  // so the slots handed out stay where they are (done with or without slots, so that the table,
-  // and with it the order of for_each_cell() and coarsened(), does not depend on them).
-  reserve(size_ + ao.size());
   std::uint32_t* slot_out = nullptr;
   if (slots != nullptr) {
     slots->resize(w, h, kNoSlot);
@@ -157,21 +123,25 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
   const float* ao_data = ao.data();
   const float* w_data = weights.data();
   const Eigen::Vector3f* verts = maps.vertices.data();
-  // Pixels go in batches: the first pass turns a batch's accepted pixels into cell codes and
-  // prefetches their table slots, the second accumulates them in pixel order (so the result is
-  // the same as one pixel at a time), one table lookup per run of pixels in the same cell.
+  // Pixels go in batches of three passes, so that the cache misses of a batch overlap: the
+  // first turns the accepted pixels into cell codes and prefetches the index slots of their
+  // bricks, the second finds (or makes, in pixel order) the bricks and prefetches the cells, the
+  // third accumulates in pixel order, so the result is the same as one pixel at a time.
   constexpr std::size_t kBatch = 64;
   std::uint64_t codes[kBatch];
+  MvaoCell* batch_cell[kBatch];
+  std::uint32_t batch_slot[kBatch];
   float batch_ao[kBatch];
   float batch_w[kBatch];
   std::size_t batch_pixel[kBatch];
-  std::uint64_t last_code = kEmpty;
-  MvaoCell* last_cell = nullptr;
+  constexpr std::uint64_t kNone = ~std::uint64_t{0};  // never a brick code
+  std::uint64_t brick_code = kNone;                   // the brick of the last cell
+  std::int64_t brick_number = -1;
   const std::size_t n = ao.size();
   for (std::size_t begin = 0; begin < n;) {
     std::size_t count = 0;
     std::size_t i = begin;
-    const std::size_t mask = keys_.size() - 1;
+    std::uint64_t prefetched = kNone;
     for (; i < n && count < kBatch; ++i) {
       const float wi = w_data[i];
       if (wi == 0.0f) continue;
@@ -191,13 +161,11 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
         ++points_out_of_range_;
         continue;
       }
-      const std::uint64_t code = *morton_encode(cx, cy, cz);
-      if (count == 0 || code != codes[count - 1]) {
-        const std::size_t slot = mix(code) & mask;
-        __builtin_prefetch(&keys_[slot]);
-        __builtin_prefetch(&cells_[slot], 1);
+      codes[count] = *morton_encode(cx, cy, cz);
+      if ((codes[count] >> kBrickBits) != prefetched) {
+        prefetched = codes[count] >> kBrickBits;
+        index_.prefetch(prefetched);
       }
-      codes[count] = code;
       batch_pixel[count] = i;
       batch_ao[count] = std::min(std::max(ai, 0.0f), 1.0f);
       batch_w[count] = mode_ == AoIntegration::kMvao ? wi : 1.0f;
@@ -205,21 +173,35 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
     }
     begin = i;
     for (std::size_t k = 0; k < count; ++k) {
-      if (codes[k] != last_code) {
-        last_cell = &insert(codes[k]);  // pointers stay valid until the next insert
-        last_code = codes[k];
+      if ((codes[k] >> kBrickBits) != brick_code) {
+        brick_code = codes[k] >> kBrickBits;
+        brick_number = make_brick(brick_code);
       }
-      MvaoCell& cell = *last_cell;
+      batch_cell[k] = nullptr;
+      if (brick_number < 0) continue;
+      const std::uint32_t local = static_cast<std::uint32_t>(codes[k] & (kBrickCells - 1));
+      batch_cell[k] = &brick(static_cast<std::uint32_t>(brick_number)).cells[local];
+      batch_slot[k] = (static_cast<std::uint32_t>(brick_number) << kBrickBits) | local;
+      __builtin_prefetch(batch_cell[k], 1);
+    }
+    for (std::size_t k = 0; k < count; ++k) {
+      if (batch_cell[k] == nullptr) {  // no brick left for it
+        ++points_out_of_range_;
+        continue;
+      }
+      MvaoCell& cell = *batch_cell[k];
       if (cell.last_frame != stamp) {
-        if (mode_ == AoIntegration::kLast) cell.ao_weight_sum = cell.weight_sum = 0.0f;
+        if (cell.last_frame == 0)
+          ++size_;
+        else if (mode_ == AoIntegration::kLast)
+          cell.ao_weight_sum = cell.weight_sum = 0.0f;
         cell.last_frame = stamp;
       }
       cell.ao_weight_sum += batch_w[k] * batch_ao[k];
       cell.weight_sum += batch_w[k];
-      if (slot_out != nullptr)
-        slot_out[batch_pixel[k]] = static_cast<std::uint32_t>(&cell - cells_.data());
+      if (slot_out != nullptr) slot_out[batch_pixel[k]] = batch_slot[k];
+      ++points_integrated_;
     }
-    points_integrated_ += count;
   }
   return Status::ok();
 }
@@ -235,13 +217,19 @@ void MvaoGrid::lookup_ao(const Eigen::Vector3f* vertices, std::size_t n, const P
                          float* out) const {
   const Eigen::Matrix3d& R = T_world_camera.rotation();
   const Eigen::Vector3d& t = T_world_camera.translation();
-  const std::size_t mask = keys_.size() - 1;
+  constexpr std::uint64_t kNone = ~std::uint64_t{0};  // never a Morton or brick code
+  std::uint64_t brick_code = kNone;
+  const Brick* cells = nullptr;  // the brick of brick_code, nullptr when there is none
+  // In batches of three passes, as integrate(): cell codes (brick index slots prefetched), cells
+  // (prefetched), AO.
   constexpr std::size_t kBatch = 64;
   std::uint64_t codes[kBatch];
+  const MvaoCell* batch_cell[kBatch];
   for (std::size_t begin = 0; begin < n; begin += kBatch) {
     const std::size_t count = std::min(kBatch, n - begin);
-    for (std::size_t k = 0; k < count; ++k) {  // cell codes, table slots prefetched
-      codes[k] = kEmpty;
+    std::uint64_t prefetched = kNone;
+    for (std::size_t k = 0; k < count; ++k) {
+      codes[k] = kNone;
       const Eigen::Vector3f& v = vertices[begin + k];
       if (v.isZero()) continue;
       const Eigen::Vector3d p = (R * v.cast<double>() + t) * inv_cell_size_;  // as cell_of()
@@ -249,26 +237,34 @@ void MvaoGrid::lookup_ao(const Eigen::Vector3f* vertices, std::size_t n, const P
       if (!to_cell_fast(p.x(), cx) || !to_cell_fast(p.y(), cy) || !to_cell_fast(p.z(), cz))
         continue;
       codes[k] = *morton_encode(cx, cy, cz);
-      const std::size_t slot = mix(codes[k]) & mask;
-      __builtin_prefetch(&keys_[slot]);
-      __builtin_prefetch(&cells_[slot]);
+      if ((codes[k] >> kBrickBits) != prefetched) {
+        prefetched = codes[k] >> kBrickBits;
+        index_.prefetch(prefetched);
+      }
     }
     for (std::size_t k = 0; k < count; ++k) {
-      float& ao = out[begin + k];
-      ao = std::numeric_limits<float>::quiet_NaN();
-      if (codes[k] == kEmpty) continue;
-      const std::size_t s = slot_of(codes[k]);
-      if (keys_[s] == codes[k] && cells_[s].weight_sum > 0.0f) ao = cells_[s].ao();
+      batch_cell[k] = nullptr;
+      if (codes[k] == kNone) continue;
+      if ((codes[k] >> kBrickBits) != brick_code) {
+        brick_code = codes[k] >> kBrickBits;
+        const int b = index_.find(brick_code);
+        cells = b >= 0 ? &brick(static_cast<std::uint32_t>(b)) : nullptr;
+      }
+      if (cells == nullptr) continue;
+      batch_cell[k] = &cells->cells[codes[k] & (kBrickCells - 1)];
+      __builtin_prefetch(batch_cell[k]);
+    }
+    for (std::size_t k = 0; k < count; ++k) {
+      const MvaoCell* c = batch_cell[k];
+      out[begin + k] =
+          c != nullptr && c->weight_sum > 0.0f ? c->ao() : std::numeric_limits<float>::quiet_NaN();
     }
   }
 }
 
 const MvaoCell* MvaoGrid::find(const CellIndex& c) const {
   const auto code = morton_encode(c[0], c[1], c[2]);
-  if (!code) return nullptr;
-  const std::size_t s = slot_of(*code);
-  if (keys_[s] != *code || !(cells_[s].weight_sum > 0.0f)) return nullptr;
-  return &cells_[s];
+  return code ? find_code(*code) : nullptr;
 }
 
 std::optional<float> MvaoGrid::cell_ao(const CellIndex& cell) const {

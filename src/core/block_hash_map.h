@@ -29,6 +29,13 @@ class BlockHashMap {
       slot = (slot + 1) & mask_;
     }
   }
+  /// Asks the CPU to fetch the table slot where find(key) starts, ahead of a batch of finds.
+  void prefetch(std::uint64_t key) const {
+    if (keys_.empty()) return;
+    const std::size_t slot = hash(key) & mask_;
+    __builtin_prefetch(&keys_[slot]);
+    __builtin_prefetch(&values_[slot]);
+  }
   /// Stores `value` for a key that is not present yet.
   void insert(std::uint64_t key, int value);
   void clear();

@@ -221,7 +221,10 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["mesh"] = {{"vertices", r.mesh_vertices},
                {"faces", r.mesh_faces},
                {"ao_unobserved_vertices", r.ao_unobserved_vertices}};
-  j["mvao_grid"] = {{"cells", r.grid_cells}, {"points_out_of_range", r.grid_points_out_of_range}};
+  j["mvao_grid"] = {{"cells", r.grid_cells},
+                    {"bricks", r.grid_bricks},
+                    {"memory_mb", r.grid_memory_mb},
+                    {"points_out_of_range", r.grid_points_out_of_range}};
   j["tsdf"] = {{"blocks", r.tsdf_blocks},
                {"memory_mb", r.tsdf_memory_mb},
                {"capacity_reached", r.tsdf_capacity_reached}};
@@ -372,6 +375,8 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   }
   result.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
   result.grid_cells = processing.grid().cell_count();
+  result.grid_bricks = processing.grid().brick_count();
+  result.grid_memory_mb = static_cast<double>(processing.grid().memory_bytes()) / (1024.0 * 1024.0);
   result.grid_points_out_of_range = processing.grid().points_out_of_range();
   if (result.grid_points_out_of_range > 0)
     spdlog::warn("{} points lay outside the MVAO grid's range and got no AO",

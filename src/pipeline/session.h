@@ -47,6 +47,8 @@ struct SessionResult {
   std::size_t ao_unobserved_vertices = 0;
   std::size_t grid_cells = 0;
   std::uint64_t grid_points_out_of_range = 0;
+  std::size_t grid_bricks = 0;  ///< the MVAO grid's bricks of 4^3 cells
+  double grid_memory_mb = 0.0;
   std::size_t tsdf_blocks = 0;
   double tsdf_memory_mb = 0.0;
   bool tsdf_capacity_reached = false;

@@ -1,7 +1,8 @@
 /// @file mvao_grid_test.cpp
 /// @brief Tests for src/ao/mvao_grid.h: exact sums from hand-made frames in the three modes,
 /// far-from-origin cells, out-of-range and non-finite points, trilinear sampling, nearest cell,
-/// and the batched integration equal to a plain per-pixel reference on a large random frame.
+/// memory per brick, slots that stay valid as the grid grows, and the batched integration equal
+/// to a plain per-pixel reference on a large random frame.
 #include "ao/mvao_grid.h"
 
 #include <cmath>
@@ -134,9 +135,9 @@ TEST(MvaoGrid, NonFiniteInputsAreSkippedAndCounted) {
 }
 
 TEST(MvaoGrid, BatchedIntegrationEqualsAPlainPerPixelReference) {
-  // 320x240 random camera points (runs of equal cells, holes, zero weights, a rotated pose, table
-  // growth during a frame): every cell's sums must be the same bits as a per-pixel accumulation
-  // written from the formula (double transform, std::floor, pixel order).
+  // 320x240 random camera points (runs of equal cells, holes, zero weights, a rotated pose, the
+  // brick index and pool growing during a frame): every cell's sums must be the same bits as a
+  // per-pixel accumulation written from the formula (double transform, std::floor, pixel order).
   AoConfig config;  // 4 m / 512 cells
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> xy(-1.0f, 1.0f), z(0.5f, 3.0f), unit(0.0f, 1.0f);
@@ -177,7 +178,7 @@ TEST(MvaoGrid, BatchedIntegrationEqualsAPlainPerPixelReference) {
     }
   EXPECT_EQ(grid.points_integrated(), count);
   EXPECT_EQ(grid.cell_count(), expected.size());
-  ASSERT_GT(expected.size(), 5000u);  // the table grew several times within the frame
+  ASSERT_GT(expected.size(), 5000u);  // the index grew several times within the frame
   for (const auto& [c, sums] : expected) {
     const MvaoCell* cell = grid.find(c);
     ASSERT_NE(cell, nullptr);
@@ -213,21 +214,51 @@ TEST(MvaoGrid, NearestObservedFindsTheClosestCentre) {
   EXPECT_FLOAT_EQ(*grid.nearest_observed({2.0, 0.1, 0.1}, 7), 0.9f);
 }
 
-TEST(MvaoGrid, MemoryGrowsOnlyWithObservedCells) {
+TEST(MvaoGrid, MemoryGrowsOnlyWithObservedBricks) {
   MvaoGrid grid(grid_config(AoIntegration::kMvao));
-  const std::size_t empty_bytes = grid.memory_bytes();
-  EXPECT_GT(empty_bytes, 0u);
+  EXPECT_EQ(grid.memory_bytes(), 0u);  // nothing before the first cell
+  // A plane of 200 x 200 cells in one z layer: 50 x 50 bricks of 4^3 cells, a quarter of each
+  // filled (an axis-aligned plane is a surface's worst case; a slanted one fills more).
   std::vector<Eigen::Vector3f> pts;
-  for (int i = 0; i < 5000; ++i) pts.emplace_back(0.25f * i + 0.1f, 0.1f, 0.1f);
+  for (int j = 0; j < 200; ++j)
+    for (int i = 0; i < 200; ++i) pts.emplace_back(0.25f * i + 0.1f, 0.25f * j + 0.1f, 0.1f);
   const Frame f(pts, std::vector<float>(pts.size(), 0.5f), std::vector<float>(pts.size(), 1.0f));
   grid.integrate(f.ao, f.w, f.maps, Pose::identity());
-  EXPECT_EQ(grid.cell_count(), 5000u);
-  EXPECT_GT(grid.memory_bytes(), empty_bytes);
-  EXPECT_LE(grid.memory_bytes(), 4 * 5000 * (sizeof(std::uint64_t) + sizeof(MvaoCell)));
-  for (int i = 0; i < 5000; ++i) ASSERT_FLOAT_EQ(*grid.cell_ao({i, 0, 0}), 0.5f);
+  EXPECT_EQ(grid.cell_count(), 40000u);
+  EXPECT_EQ(grid.brick_count(), 2500u);
+  // 768 bytes per brick, the pool's last chunk partly empty, 12-byte index entries at load <= 1/2.
+  EXPECT_GE(grid.memory_bytes(), 2500 * 64 * sizeof(MvaoCell));
+  EXPECT_LE(grid.memory_bytes(), 64 * grid.cell_count());
+  for (int j = 0; j < 200; ++j)
+    for (int i = 0; i < 200; ++i) ASSERT_FLOAT_EQ(*grid.cell_ao({i, j, 0}), 0.5f);
+  EXPECT_FALSE(grid.cell_ao({0, 0, 1}));  // in a brick, never observed
   grid.clear();
   EXPECT_EQ(grid.cell_count(), 0u);
+  EXPECT_EQ(grid.brick_count(), 0u);
+  EXPECT_EQ(grid.memory_bytes(), 0u);
   EXPECT_FALSE(grid.cell_ao({0, 0, 0}));
+}
+
+TEST(MvaoGrid, SlotsStayValidWhileTheGridGrows) {
+  // The slots of a frame read its cells after later frames made thousands of new bricks: cells
+  // never move.
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));
+  const Frame first({kA, kC, {-0.1f, 0.1f, 0.1f}, {0.1f, 0.1f, -5.0f}}, {0.2f, 0.6f, 0.9f, 0.4f},
+                    {1.0f, 0.0f, 2.0f, 1.0f});
+  Image<std::uint32_t> slots;
+  ASSERT_TRUE(grid.integrate(first.ao, first.w, first.maps, Pose::identity(), &slots).is_ok());
+  EXPECT_EQ(slots(1, 0), MvaoGrid::kNoSlot);  // weight 0: not integrated
+  const Image<std::uint32_t> kept = slots;
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 20000; ++i) pts.emplace_back(1.1f * i + 3.0f, 0.1f, 0.1f);  // a brick each
+  const Frame more(pts, std::vector<float>(pts.size(), 1.0f), std::vector<float>(pts.size(), 1.0f));
+  ASSERT_TRUE(grid.integrate(more.ao, more.w, more.maps, Pose::identity(), &slots).is_ok());
+  EXPECT_GE(grid.brick_count(), 20000u);
+  EXPECT_FLOAT_EQ(grid.slot_ao(kept(0, 0)), 0.2f);
+  EXPECT_FLOAT_EQ(grid.slot_ao(kept(2, 0)), 0.9f);
+  EXPECT_FLOAT_EQ(grid.slot_ao(kept(3, 0)), 0.4f);
+  EXPECT_FLOAT_EQ(grid.slot_ao(slots(5, 0)), 1.0f);
+  EXPECT_TRUE(std::isnan(grid.slot_ao(MvaoGrid::kNoSlot)));
 }
 
 TEST(MvaoGrid, CoarsenedCellsHoldTheWeightedMeanOfTheirCells) {

@@ -313,6 +313,13 @@ TEST(Cli, ReplayIsDeterministicForTheSameThreads) {
   const nlohmann::json stats = read_stats(dir / "a");
   EXPECT_EQ(stats["frames_tracking_lost"], 0);
   EXPECT_GT(stats["mesh"]["faces"].get<int>(), 1000);
+  // The MVAO grid's cells sit in bricks of 4^3 (768 bytes each): a surface fills part of each.
+  const auto cells = stats["mvao_grid"]["cells"].get<std::size_t>();
+  const auto bricks = stats["mvao_grid"]["bricks"].get<std::size_t>();
+  EXPECT_GT(bricks, 100u);
+  EXPECT_GT(cells, 4 * bricks);
+  EXPECT_LE(cells, 64 * bricks);
+  EXPECT_GE(stats["mvao_grid"]["memory_mb"].get<double>(), bricks * 768.0 / (1024.0 * 1024.0));
 }
 
 }  // namespace

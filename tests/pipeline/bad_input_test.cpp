@@ -204,6 +204,8 @@ TEST(BadInputAo, EmptyRaycastsReachSsaoAndMvaoWithoutHarm) {
   EXPECT_EQ(lost(f), 4u);
   ASSERT_EQ(f.trajectory.size(), 2u);
   EXPECT_EQ(f.stats["mvao_grid"]["cells"], 0);
+  EXPECT_EQ(f.stats["mvao_grid"]["bricks"], 0);
+  EXPECT_EQ(f.stats["mvao_grid"]["memory_mb"], 0.0);  // nothing held without a cell
   ASSERT_GT(f.mesh.vertices.size(), 100u);  // frame 0's surface, never seen by SSAO
   EXPECT_EQ(f.stats["mesh"]["ao_unobserved_vertices"].get<std::size_t>(), f.mesh.vertices.size());
   for (float q : f.mesh.quality) ASSERT_EQ(q, 1.0f);
