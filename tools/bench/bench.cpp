@@ -1,6 +1,6 @@
 /// @file bench.cpp
 /// @brief aoscan-bench: per-stage milliseconds and frames per second of the pipeline's stages on a
-/// recording, either serially on one thread (what each stage costs) or as the threaded chain.
+/// recording, either one stage at a time (what each stage costs) or as the threaded chain.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -48,6 +48,7 @@ struct BenchRun {
   int repeat = 1;                         ///< passes over the source
   std::size_t stage_count = 0;            ///< the first N processing stages (0 = all)
   int view_every = 0;  ///< > 0: the mvao stage also builds the window's view products every N
+  int threads = 1;     ///< threads of the data-parallel kernels
 };
 
 /// A new model with the run's view products, and its first `stage_count` stages (all when 0).
@@ -66,7 +67,7 @@ void print_footer(const std::vector<StageStats>& stages, std::size_t frames_lost
   std::printf("  peak RSS %.0f MB\n", peak_rss_mb());
 }
 
-/// Every stage in turn on one thread, frame by frame.
+/// Every stage in turn, frame by frame (each stage's kernels on run.threads threads).
 int run_serial(const BenchRun& run) {
   const std::string& spec = run.spec;
   std::vector<StageStats> stats;
@@ -100,7 +101,9 @@ int run_serial(const BenchRun& run) {
     wall_s += std::chrono::duration<double>(Clock::now() - start).count();
     lost += processing.frames_tracking_lost();
   }
-  print_table(spec + " (serial, one thread)", stats, wall_s, frames);
+  print_table(spec + " (stages one at a time, " + std::to_string(run.threads) +
+                  (run.threads == 1 ? " thread)" : " threads)"),
+              stats, wall_s, frames);
   print_footer(stats, lost);
   return 0;
 }
@@ -140,7 +143,6 @@ int run(int argc, char** argv) {
   BenchRun bench;
   std::string config_file;
   std::vector<std::string> sets;
-  int threads = 1;
   bool chain = false;
   app.add_option("SOURCE", bench.spec, "recording folder or synth: scene")->required();
   app.add_option("--frames", bench.max_frames, "at most N frames per pass");
@@ -151,7 +153,9 @@ int run(int argc, char** argv) {
                  "the mvao stage also builds the live view's MVAO image every N frames, as with "
                  "the window open (0 = headless)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--threads", threads, "threads for data-parallel kernels")->capture_default_str();
+  app.add_option("--threads", bench.threads, "threads for data-parallel kernels")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1024));
   app.add_option("--config", config_file, "configuration file");
   app.add_option("--set", sets, "KEY=VALUE override");
   app.add_flag("--chain", chain, "run the threaded stage chain instead of one stage at a time");
@@ -160,7 +164,7 @@ int run(int argc, char** argv) {
     configure_logging("error");
     bench.config = load_config(config_file, sets);
     tbb::global_control budget(tbb::global_control::max_allowed_parallelism,
-                               static_cast<std::size_t>(threads));
+                               static_cast<std::size_t>(bench.threads));
     return chain ? run_chain(bench) : run_serial(bench);
   } catch (const Error& e) {
     std::fprintf(stderr, "aoscan-bench: error: %s\n", e.what());
