@@ -29,12 +29,6 @@ class NearestCells {
       values_.push_back(cell.ao());
       buckets_[key(c[0] >> kBucketShift, c[1] >> kBucketShift, c[2] >> kBucketShift)].push_back(id);
     });
-    // Deterministic tie-breaking independent of table order: candidates sorted by position.
-    for (auto& [k, ids] : buckets_)
-      std::sort(ids.begin(), ids.end(), [&](int a, int b) {
-        return std::lexicographical_compare(centres_[a].data(), centres_[a].data() + 3,
-                                            centres_[b].data(), centres_[b].data() + 3);
-      });
   }
 
   bool empty() const { return centres_.empty(); }
@@ -69,9 +63,16 @@ class NearestCells {
     const auto u = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFu; };
     return u(x) | u(y) << 21 | u(z) << 42;
   }
+  /// Equally near cells (common: mesh vertices lie on voxel edges, which are cell faces of the
+  /// grid) go to the lexicographically smallest centre, so the result does not depend on the
+  /// order in which the grid lists its cells.
   void consider(const Eigen::Vector3d& p, int id, int& best, double& best_d2) const {
     const double d2 = (centres_[id] - p).squaredNorm();
-    if (d2 < best_d2 || (d2 == best_d2 && id < best)) {
+    const auto before = [&](int a, int b) {
+      return std::lexicographical_compare(centres_[a].data(), centres_[a].data() + 3,
+                                          centres_[b].data(), centres_[b].data() + 3);
+    };
+    if (d2 < best_d2 || (d2 == best_d2 && before(id, best))) {
       best_d2 = d2;
       best = id;
     }

@@ -1,6 +1,6 @@
 /// @file mesh_ao_test.cpp
 /// @brief Tests for src/ao/mesh_ao.h: trilinear per-vertex AO, nearest-cell fallback and its
-/// count, the empty grid, non-finite vertices.
+/// count and its ties, the empty grid, non-finite vertices.
 #include "ao/mesh_ao.h"
 
 #include <cmath>
@@ -49,6 +49,31 @@ TEST(MeshAo, SamplesTheGridAndFallsBackToTheNearestCell) {
   EXPECT_FLOAT_EQ(mesh.quality[3], 0.8f);
   EXPECT_FLOAT_EQ(mesh.quality[4], 0.8f);
   EXPECT_FLOAT_EQ(mesh.quality[5], 1.0f);
+}
+
+TEST(MeshAo, EquallyNearCellsGoToTheSmallestCentreWhateverTheGridsOrder) {
+  // Cells (0,0,0) = 0.2 and (8,0,0) = 0.8 (in different buckets of the search), the vertex
+  // exactly between their centres: the same answer whichever cell the grid met first.
+  for (bool swapped : {false, true}) {
+    AoConfig c;
+    c.grid_extent_m = 1.0;
+    c.grid_resolution = 4;
+    c.integration = AoIntegration::kMean;
+    MvaoGrid grid(c);
+    Image<float> ao(2, 1), w(2, 1, 1.0f);
+    PointMaps maps;
+    maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
+    maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+    maps.vertices(swapped ? 1 : 0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
+    ao(swapped ? 1 : 0, 0) = 0.2f;
+    maps.vertices(swapped ? 0 : 1, 0) = Eigen::Vector3f(2.1f, 0.1f, 0.1f);
+    ao(swapped ? 0 : 1, 0) = 0.8f;
+    grid.integrate(ao, w, maps, Pose::identity());
+    TriangleMesh mesh;
+    mesh.vertices = {{1.125f, 0.125f, 0.125f}};
+    EXPECT_EQ(apply_grid_ao(grid, 1, mesh), 1u);
+    EXPECT_FLOAT_EQ(mesh.quality[0], 0.2f) << (swapped ? "cell 8 integrated first" : "");
+  }
 }
 
 TEST(MeshAo, ReadsTheGridThroughCoarserCellsWithTheMeshCellFactor) {
