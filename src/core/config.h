@@ -266,6 +266,12 @@ struct AoConfig {
   /// (McGuire et al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r
   /// +0.002 to +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
   double area_min_cos = 0.5;
+  /// Live only (a camera or `--realtime`): while frames are dropped in front of tracking, SSAO runs
+  /// on every 3rd, 5th, ... tracked frame, up to this interval (odd; 1 = every frame always); see
+  /// pipeline/ao_load_shedder.h. 3: RedKitchen paced at 30 Hz on 2 cores (`--realtime`), frames
+  /// dropped in front of tracking 18 / 20 against 20 / 37 with 1 (two alternating pairs); see
+  /// BENCHMARKS.md.
+  int live_max_interval = 3;
 
   template <class V>
   void visit(V& v) {
@@ -314,6 +320,10 @@ struct AoConfig {
              0.01, 1.0);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
+    v.integer("live_max_interval", live_max_interval,
+              "live: while frames are dropped in front of tracking, SSAO runs on every 3rd, "
+              "5th, ... tracked frame up to this (1 = every frame)",
+              1, 15);
   }
 };
 

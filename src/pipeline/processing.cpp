@@ -14,7 +14,11 @@
 namespace aoscan {
 
 Processing::Processing(const Config& config, std::string out_dir)
-    : config_(config), out_dir_(std::move(out_dir)), reconstruction_(config), grid_(config.ao) {}
+    : config_(config),
+      out_dir_(std::move(out_dir)),
+      reconstruction_(config),
+      ao_shedder_(config.ao.live_max_interval),
+      grid_(config.ao) {}
 
 std::vector<StageDef> Processing::stages() {
   return {
@@ -69,8 +73,9 @@ Status Processing::track(FrameWork& frame) {
   return Status::ok();
 }
 
-Status Processing::ssao(FrameWork& frame) const {
-  if (!frame.raycast) {  // not tracked: no pose to place this view's AO
+Status Processing::ssao(FrameWork& frame) {
+  // Not tracked (no pose to place this view's AO), or skipped to keep up with a live camera.
+  if (!frame.raycast || !ao_shedder_.take(frame.frames_dropped_before)) {
     frame.ssao.resize(0, 0);
     return Status::ok();
   }

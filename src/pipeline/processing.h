@@ -17,6 +17,7 @@
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
 #include "io/vdb.h"
+#include "pipeline/ao_load_shedder.h"
 #include "pipeline/frame_pool.h"
 #include "pipeline/pipeline.h"
 
@@ -61,6 +62,9 @@ class Processing {
   std::size_t frames_tracking_lost() const { return frames_tracking_lost_; }
   const Reconstruction& reconstruction() const { return reconstruction_; }
   const MvaoGrid& grid() const { return grid_; }
+  /// Tracked frames whose SSAO the ssao stage skipped under live load (read after the chain has
+  /// stopped; see AoLoadShedder).
+  std::size_t ao_frames_skipped() const { return ao_shedder_.skipped(); }
 
   /// Writes trajectory.txt and mesh.ply into `out_dir` (read after the chain has stopped).
   /// Returns the mesh statistics for stats.json.
@@ -79,7 +83,7 @@ class Processing {
   Status preprocess(FrameWork& frame) const;
   Status filter(FrameWork& frame) const;
   Status track(FrameWork& frame);
-  Status ssao(FrameWork& frame) const;
+  Status ssao(FrameWork& frame);
   Status mvao(FrameWork& frame);
   void write_requested_outputs(FrameWork& frame);
 
@@ -89,6 +93,7 @@ class Processing {
   /// which holds one of them, so that it outlives every pointer it handed out.
   ObjectPool<RaycastResult> raycasts_;
   Reconstruction reconstruction_;    ///< written by the track stage only
+  AoLoadShedder ao_shedder_;         ///< used by the ssao stage only
   MvaoGrid grid_;                    ///< written by the mvao stage only
   Image<std::uint32_t> view_slots_;  ///< the grid slots of the frame's pixels, for mvao_image()
   std::vector<StampedPose> trajectory_;

@@ -194,6 +194,7 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["frames_dropped_at"] = dropped_at;
   j["frames_corrupt"] = c.frames_corrupt;
   j["frames_tracking_lost"] = c.frames_tracking_lost;
+  j["ao_frames_skipped_live"] = r.ao_frames_skipped_live;
   j["wall_s"] = r.pipeline.wall_s;
   j["fps"] =
       r.pipeline.wall_s > 0 ? static_cast<double>(c.frames_processed) / r.pipeline.wall_s : 0.0;
@@ -336,6 +337,12 @@ SessionResult run_session(Source& source, const SessionOptions& options,
     result.live_view_lost = window->display_lost();
   }
   result.pipeline.counters.frames_tracking_lost = processing.frames_tracking_lost();
+  result.ao_frames_skipped_live = processing.ao_frames_skipped();
+  if (result.ao_frames_skipped_live > 0)
+    spdlog::info(
+        "SSAO skipped on {} tracked frames to keep up with the camera "
+        "(ao.live_max_interval)",
+        result.ao_frames_skipped_live);
   result.model_resets = processing.model_resets();
   result.outputs_written_on_request = processing.outputs_written_on_request();
   result.quit_by_user = pump.quit();
