@@ -11,22 +11,24 @@ namespace aoscan {
 namespace {
 
 /// A grid with cell size 0.25 m (mean integration) holding 0.2 in cell (0,0,0) and `second_ao`
-/// in the cell of `second` (by default cell (8,0,0) = 0.8).
-MvaoGrid two_cell_grid(const Eigen::Vector3f& second = {2.1f, 0.1f, 0.1f},
-                       float second_ao = 0.8f) {
+/// in the cell of `second` (by default cell (8,0,0) = 0.8); `second_first`: the second point is
+/// the first pixel, so the grid meets its cell first.
+MvaoGrid two_cell_grid(const Eigen::Vector3f& second = {2.1f, 0.1f, 0.1f}, float second_ao = 0.8f,
+                       bool second_first = false) {
   AoConfig c;
   c.grid_extent_m = 1.0;
   c.grid_resolution = 4;
   c.integration = AoIntegration::kMean;
   MvaoGrid grid(c);
   Image<float> ao(2, 1), w(2, 1, 1.0f);
-  ao(0, 0) = 0.2f;
-  ao(1, 0) = second_ao;
+  const int a = second_first ? 1 : 0;
+  ao(a, 0) = 0.2f;
+  ao(1 - a, 0) = second_ao;
   PointMaps maps;
   maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
   maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
-  maps.vertices(0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
-  maps.vertices(1, 0) = second;
+  maps.vertices(a, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
+  maps.vertices(1 - a, 0) = second;
   grid.integrate(ao, w, maps, Pose::identity());
   return grid;
 }
@@ -55,20 +57,7 @@ TEST(MeshAo, EquallyNearCellsGoToTheSmallestCentreWhateverTheGridsOrder) {
   // Cells (0,0,0) = 0.2 and (8,0,0) = 0.8 (in different buckets of the search), the vertex
   // exactly between their centres: the same answer whichever cell the grid met first.
   for (bool swapped : {false, true}) {
-    AoConfig c;
-    c.grid_extent_m = 1.0;
-    c.grid_resolution = 4;
-    c.integration = AoIntegration::kMean;
-    MvaoGrid grid(c);
-    Image<float> ao(2, 1), w(2, 1, 1.0f);
-    PointMaps maps;
-    maps.vertices.resize(2, 1, Eigen::Vector3f::Zero());
-    maps.normals.resize(2, 1, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
-    maps.vertices(swapped ? 1 : 0, 0) = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
-    ao(swapped ? 1 : 0, 0) = 0.2f;
-    maps.vertices(swapped ? 0 : 1, 0) = Eigen::Vector3f(2.1f, 0.1f, 0.1f);
-    ao(swapped ? 0 : 1, 0) = 0.8f;
-    grid.integrate(ao, w, maps, Pose::identity());
+    const MvaoGrid grid = two_cell_grid({2.1f, 0.1f, 0.1f}, 0.8f, swapped);
     TriangleMesh mesh;
     mesh.vertices = {{1.125f, 0.125f, 0.125f}};
     EXPECT_EQ(apply_grid_ao(grid, 1, mesh), 1u);
