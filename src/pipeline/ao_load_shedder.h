@@ -10,13 +10,14 @@ namespace aoscan {
 
 /// Decides, frame by frame, whether the ssao stage computes a tracked frame's SSAO. Live (a camera
 /// or `--realtime`), frames are dropped in front of the track stage when the chain cannot keep up
-/// with the camera; SSAO shares the two cores with tracking, and the MVAO grid gathers AO from
-/// every view anyway, so fewer SSAO views cost the grid little while every dropped frame makes
-/// the next ICP step longer. Each new drop (the run's count carried by the frames grows) widens
-/// the interval by 2 up to the maximum; kCalmFrames frames without a drop narrow it by 2. The
-/// intervals are odd (1, 3, 5, ...): the SSAO pattern's pixel of each 2x2 block follows the frame
-/// sequence modulo 4, which an odd step walks through all four. Without drops (every replay that
-/// is not paced) the interval stays 1 and nothing changes. One user: the ssao stage's thread.
+/// with the camera; SSAO shares the two cores with tracking, every dropped frame makes the next ICP
+/// step longer, and the MVAO grid still gathers AO from the views that are shaded (what fewer
+/// views cost the AO under load is not measured; see BENCHMARKS.md). Each new drop (the run's count
+/// carried by the frames grows) widens the interval by 2 up to the maximum; kCalmFrames frames
+/// without a drop narrow it by 2. The intervals are odd (1, 3, 5, ...): the SSAO pattern's pixel of
+/// each 2x2 block follows the frame sequence modulo 4, which an odd step walks through all four
+/// (while no frame is dropped between). Without drops (every replay that is not paced) the interval
+/// stays 1 and nothing changes. One user: the ssao stage's thread.
 class AoLoadShedder {
  public:
   /// Frames without a new drop before the interval narrows (a second at 30 Hz).
