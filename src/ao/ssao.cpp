@@ -540,6 +540,12 @@ bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& norm
 
 void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
                   Image<float>& ao, Image<float>& weight) {
+  SsaoWorkspace workspace;
+  compute_ssao(maps, config, frame_index, ao, weight, workspace);
+}
+
+void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
+                  Image<float>& ao, Image<float>& weight, SsaoWorkspace& workspace) {
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
   ao.resize(w, h, 0.0f);
@@ -547,13 +553,12 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
   if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
   const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
   // The SSAO normals of the whole image at once (the samples' area factor reads them too).
-  thread_local PointMaps smoothed;
-  thread_local std::vector<float> scratch;
   const PointMaps* in = &maps;
   if (config.normal_radius_px > 0) {
     smooth_model_normals(maps, config.normal_radius_px,
-                         static_cast<float>(config.normal_max_distance_m), smoothed, scratch);
-    in = &smoothed;
+                         static_cast<float>(config.normal_max_distance_m), workspace.smoothed,
+                         workspace.smoothing_planes);
+    in = &workspace.smoothed;
   }
   const FrameSetup setup = make_setup(*in, pattern, config);
   const PixelFn kernel = fast_kernel(config.estimator);

@@ -96,6 +96,18 @@ bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& norm
 void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
                   Image<float>& ao, Image<float>& weight);
 
+/// Reusable buffers of compute_ssao(): the maps with smoothed normals (config.normal_radius_px >
+/// 0) and the smoothing's scratch. A caller that runs SSAO every frame keeps one, so the frame
+/// allocates nothing; one workspace serves one call at a time.
+struct SsaoWorkspace {
+  PointMaps smoothed;
+  std::vector<float> smoothing_planes;  ///< scratch of smooth_model_normals()
+};
+
+/// compute_ssao() with the caller's buffers (the overload above makes its own each call).
+void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
+                  Image<float>& ao, Image<float>& weight, SsaoWorkspace& workspace);
+
 /// Plain serial per-pixel implementation of compute_ssao() (same contract), written directly from
 /// the formulas; the fast version matches it within 1e-5.
 void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,

@@ -88,7 +88,8 @@ Status Processing::ssao(FrameWork& frame) {
                        frame.raw_maps.normals);
     maps = &frame.raw_maps;
   }
-  compute_ssao(*maps, config_.ao, frame.raw.sequence, frame.ssao, frame.ssao_weight);
+  compute_ssao(*maps, config_.ao, frame.raw.sequence, frame.ssao, frame.ssao_weight,
+               ssao_workspace_);
   return Status::ok();
 }
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "ao/mvao_grid.h"
+#include "ao/ssao.h"
 #include "core/config.h"
 #include "core/mesh.h"
 #include "fusion/reconstruction.h"
@@ -94,6 +95,7 @@ class Processing {
   ObjectPool<RaycastResult> raycasts_;
   Reconstruction reconstruction_;    ///< written by the track stage only
   AoLoadShedder ao_shedder_;         ///< used by the ssao stage only
+  SsaoWorkspace ssao_workspace_;     ///< used by the ssao stage only
   MvaoGrid grid_;                    ///< written by the mvao stage only
   Image<std::uint32_t> view_slots_;  ///< the grid slots of the frame's pixels, for mvao_image()
   std::vector<StampedPose> trajectory_;

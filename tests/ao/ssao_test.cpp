@@ -1,11 +1,13 @@
 /// @file ssao_test.cpp
 /// @brief Tests for src/ao/ssao.h: view weights (Eq. 10-11), exact values on analytic planes and
-/// corners, fast == reference, thread-count determinism, stride-2 evaluation, invalid inputs.
+/// corners, fast == reference, a reused workspace, thread-count determinism, stride-2 evaluation,
+/// invalid inputs.
 #include "ao/ssao.h"
 
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -334,6 +336,26 @@ TEST(Ssao, EvaluatedPixelsAndSamplesBothReadTheSmoothedNormal) {
     for (std::size_t i = 0; i < ao.size(); ++i)
       ref_diff = std::max(ref_diff, std::abs(ao.data()[i] - ao_ref.data()[i]));
     EXPECT_LE(ref_diff, 1e-5f) << "stride " << stride;
+  }
+}
+
+TEST(Ssao, AReusedWorkspaceGivesWhatAFreshOneGives) {
+  // One workspace through maps of two sizes and back: nothing of an earlier call leaks into a
+  // later one (the smoothed maps are rebuilt at each call's size).
+  const PointMaps edge = floor_wall_edge();
+  PointMaps half;
+  downsample_model(open_wall(), half);
+  ASSERT_NE(half.vertices.width(), edge.vertices.width());
+  const AoConfig config = config_for(AoEstimator::kAlchemy, 1);
+  ASSERT_GT(config.normal_radius_px, 0);
+  SsaoWorkspace workspace;
+  for (const PointMaps* maps : std::vector<const PointMaps*>{&edge, &half, &edge}) {
+    Image<float> ao, w, ao_fresh, w_fresh;
+    compute_ssao(*maps, config, 1, ao, w, workspace);
+    compute_ssao(*maps, config, 1, ao_fresh, w_fresh);
+    EXPECT_EQ(workspace.smoothed.vertices.width(), maps->vertices.width());
+    EXPECT_EQ(ao, ao_fresh);
+    EXPECT_EQ(w, w_fresh);
   }
 }
 
