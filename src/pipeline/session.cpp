@@ -20,6 +20,7 @@
 #include <tbb/global_control.h>
 #include <nlohmann/json.hpp>
 
+#include "core/host_cpu.h"
 #include "core/log.h"
 #include "pipeline/processing.h"
 #include "pipeline/view_stage.h"
@@ -201,6 +202,8 @@ void write_stats_json(const std::string& path, const SessionResult& r, int threa
   j["export_s"] = r.export_s;
   j["threads"] = threads;
   j["peak_rss_mb"] = peak_rss_mb();
+  j["host_steal_percent"] =
+      r.host_steal_percent ? nlohmann::json(*r.host_steal_percent) : nlohmann::json(nullptr);
   nlohmann::json stages = nlohmann::json::object();
   for (const StageStats& s : r.pipeline.stages) {
     const TimingSummary t = s.summary();
@@ -329,7 +332,9 @@ SessionResult run_session(Source& source, const SessionOptions& options,
         });
   }
   pump.start();
+  const std::optional<HostCpuTimes> host_before = read_host_cpu_times();
   result.pipeline = run_pipeline(source, stages, popts, chain_stop);
+  result.host_steal_percent = steal_percent(host_before, read_host_cpu_times());
   pump.stop();
   if (window) {
     window->stop();

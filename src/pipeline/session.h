@@ -46,6 +46,9 @@ struct SessionResult {
   std::size_t mesh_faces = 0;
   std::size_t ao_unobserved_vertices = 0;
   std::size_t ao_frames_skipped_live = 0;  ///< tracked frames without SSAO under live load
+  /// Share of the machine's CPU time the hypervisor took while the chain ran (core/host_cpu.h);
+  /// nothing where /proc/stat cannot tell.
+  std::optional<double> host_steal_percent;
   std::size_t grid_cells = 0;
   std::uint64_t grid_points_out_of_range = 0;
   std::size_t grid_bricks = 0;  ///< the MVAO grid's bricks of 4^3 cells

@@ -44,6 +44,11 @@ TEST(Session, WritesStatsJsonWithTheContractKeys) {
   EXPECT_NEAR(j["fps"].get<double>(), 24.0 / j["wall_s"].get<double>(), 1e-6);
   EXPECT_GE(j["export_s"].get<double>(), 0.0);
   EXPECT_GT(j["peak_rss_mb"].get<double>(), 1.0);
+  ASSERT_TRUE(j.contains("host_steal_percent"));
+  if (!j["host_steal_percent"].is_null()) {  // null where /proc/stat cannot tell
+    EXPECT_GE(j["host_steal_percent"].get<double>(), 0.0);
+    EXPECT_LE(j["host_steal_percent"].get<double>(), 100.0);
+  }
   for (const char* stage : {"capture", "preprocess", "filter", "track", "ssao", "mvao"}) {
     ASSERT_TRUE(j["stages"].contains(stage)) << stage;
     const auto& s = j["stages"][stage];

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 
 #include "capture/source.h"
 #include "core/config.h"
+#include "core/host_cpu.h"
 #include "core/log.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/processing.h"
@@ -59,16 +61,21 @@ std::vector<StageDef> first_stages(Processing& processing, const BenchRun& run) 
   return stages;
 }
 
-/// Tracking losses (when the track stage ran) and the peak RSS, under the table.
-void print_footer(const std::vector<StageStats>& stages, std::size_t frames_lost) {
+/// Tracking losses (when the track stage ran), the peak RSS and the CPU time the hypervisor took
+/// during the run (`host_before`: read when the run started), under the table.
+void print_footer(const std::vector<StageStats>& stages, std::size_t frames_lost,
+                  const std::optional<HostCpuTimes>& host_before) {
   const bool tracked = std::any_of(stages.begin(), stages.end(),
                                    [](const StageStats& s) { return s.name() == "track"; });
   if (tracked) std::printf("  tracking lost on %zu frames\n", frames_lost);
   std::printf("  peak RSS %.0f MB\n", peak_rss_mb());
+  if (const std::optional<double> steal = steal_percent(host_before, read_host_cpu_times()))
+    std::printf("  host CPU time stolen by the hypervisor during the run: %.1f %%\n", *steal);
 }
 
 /// Every stage in turn, frame by frame (each stage's kernels on run.threads threads).
 int run_serial(const BenchRun& run) {
+  const std::optional<HostCpuTimes> host_before = read_host_cpu_times();
   const std::string& spec = run.spec;
   std::vector<StageStats> stats;
   std::size_t frames = 0, lost = 0;
@@ -104,12 +111,13 @@ int run_serial(const BenchRun& run) {
   print_table(spec + " (stages one at a time, " + std::to_string(run.threads) +
                   (run.threads == 1 ? " thread)" : " threads)"),
               stats, wall_s, frames);
-  print_footer(stats, lost);
+  print_footer(stats, lost, host_before);
   return 0;
 }
 
 /// The threaded chain as replay runs it.
 int run_chain(const BenchRun& run) {
+  const std::optional<HostCpuTimes> host_before = read_host_cpu_times();
   const std::string& spec = run.spec;
   std::vector<StageStats> all;
   double wall_s = 0;
@@ -134,7 +142,7 @@ int run_chain(const BenchRun& run) {
     lost += processing.frames_tracking_lost();
   }
   print_table(spec + " (threaded chain)", all, wall_s, frames);
-  print_footer(all, lost);
+  print_footer(all, lost, host_before);
   return 0;
 }
 
