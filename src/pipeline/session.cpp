@@ -410,6 +410,13 @@ SessionResult run_session(Source& source, const SessionOptions& options,
                    threads);
   spdlog::info("{} frames processed in {:.2f} s", result.pipeline.counters.frames_processed,
                result.pipeline.wall_s);
+  // Above this share of stolen CPU time the run's speed says more about the host than about it.
+  constexpr double kNotableStealPercent = 5.0;
+  if (result.host_steal_percent && *result.host_steal_percent > kNotableStealPercent)
+    spdlog::info(
+        "the hypervisor took {:.0f} % of this machine's CPU time during the run: "
+        "the timings reflect a busy host",
+        *result.host_steal_percent);
   return result;
 }
 
