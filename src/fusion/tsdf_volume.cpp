@@ -299,10 +299,12 @@ int TsdfVolume::allocate_block(const Eigen::Vector3i& coord) {
     return -1;
   }
   const int index = block_count();
-  if ((index >> kChunkBits) >= static_cast<int>(chunks_.size()))
-    chunks_.push_back(std::make_unique<VoxelBlock[]>(std::size_t{1} << kChunkBits));
-  else
-    block(index) = VoxelBlock{};
+  if ((index >> kChunkBits) >= static_cast<int>(chunks_.size())) {
+    static_assert(std::is_trivially_destructible_v<VoxelBlock>, "ChunkFree destroys nothing");
+    chunks_.emplace_back(
+        static_cast<VoxelBlock*>(::operator new(sizeof(VoxelBlock) << kChunkBits)));
+  }
+  ::new (static_cast<void*>(&block(index))) VoxelBlock{};
   coords_.push_back(coord);
   last_frame_.push_back(0);
   map_.insert(key, index);

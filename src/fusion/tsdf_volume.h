@@ -9,6 +9,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <new>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -204,7 +206,13 @@ class TsdfVolume {
 
   BlockHashMap map_;
   BlockHashMap regions_;  ///< the regions holding a block (value: the first block's index)
-  std::vector<std::unique_ptr<VoxelBlock[]>> chunks_;
+  /// Frees a chunk's storage (blocks are trivially destructible: nothing to destroy).
+  struct ChunkFree {
+    void operator()(VoxelBlock* chunk) const { ::operator delete(chunk); }
+  };
+  /// Storage of 2^kChunkBits blocks each, which never moves; a block is constructed only when
+  /// allocate_block() hands it out, so a new chunk costs no write (and no page touched) at once.
+  std::vector<std::unique_ptr<VoxelBlock[], ChunkFree>> chunks_;
   std::vector<Eigen::Vector3i> coords_;
   std::vector<std::uint32_t> last_frame_;  ///< per block: integrate() call that last listed it
   std::uint32_t frame_counter_ = 0;
