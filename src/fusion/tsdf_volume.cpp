@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -301,8 +303,10 @@ int TsdfVolume::allocate_block(const Eigen::Vector3i& coord) {
   const int index = block_count();
   if ((index >> kChunkBits) >= static_cast<int>(chunks_.size())) {
     static_assert(std::is_trivially_destructible_v<VoxelBlock>, "ChunkFree destroys nothing");
-    chunks_.emplace_back(
+    // Owned before the vector grows, so a failing push_back frees it.
+    std::unique_ptr<VoxelBlock[], ChunkFree> chunk(
         static_cast<VoxelBlock*>(::operator new(sizeof(VoxelBlock) << kChunkBits)));
+    chunks_.push_back(std::move(chunk));
   }
   ::new (static_cast<void*>(&block(index))) VoxelBlock{};
   coords_.push_back(coord);
