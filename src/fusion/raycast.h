@@ -33,11 +33,19 @@ struct RaycastResult {
 /// trilinear samples stepping by the TSDF value, then a march of +-2 truncations around it) and
 /// nowhere else: the frame saw free space in front of its depth, so this is the first crossing
 /// unless the model disagrees with the frame. Rays without a hint march their whole range. Pass a
-/// hint only for a frame that was fused at this pose (never after a lost frame).
+/// hint only for a frame that was fused at this pose (never after a lost frame). On a CPU with
+/// AVX2 the hinted rays of a row are searched eight per vector (raycast_portable() is the same
+/// search one ray at a time, bit for bit the same result).
 /// Throws usage_error on invalid intrinsics, an empty depth range or a hint of the wrong size.
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
              const FusionConfig& config, RaycastResult& result,
              const Image<float>* depth_hint_m = nullptr);
+
+/// raycast() without SIMD, the hinted rays searched one at a time: bit for bit the same result
+/// on any CPU. For tests and CPUs without AVX2.
+void raycast_portable(const TsdfVolume& volume, const Intrinsics& intrinsics,
+                      const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
+                      const Image<float>* depth_hint_m = nullptr);
 
 /// Pixels of a depth image with a surface (depth > 0): RaycastResult::hits of that depth.
 int count_hits(const Image<float>& depth);

@@ -281,6 +281,27 @@ class TsdfSampler {
     return true;
   }
 
+  /// The first voxels of the four x pairs (corners 0-1, 2-3, 4-5, 6-7) of the cell at (x, y, z),
+  /// whose pairs each lie in one block ((x & 7) != 7): one block, or two or four when the cell
+  /// straddles y or z block borders, each found once. False when one of them is missing. For
+  /// kernels that read many cells' voxels at once (trilinear() reads them through this).
+  __attribute__((always_inline)) bool x_pairs(int x, int y, int z, const Voxel** pairs) {
+    const int ly = y & 7, lz = z & 7;
+    if (ly != 7 && lz != 7) {
+      const Voxel* v0 = voxel(x, y, z);
+      if (v0 == nullptr) return false;
+      pairs[0] = v0;
+      pairs[1] = v0 + kBlockSize;
+      pairs[2] = v0 + kBlockSize * kBlockSize;
+      pairs[3] = v0 + kBlockSize + kBlockSize * kBlockSize;
+      return true;
+    }
+    const VoxelBlock* blocks[4];
+    if (!yz_blocks(x >> 3, y >> 3, z >> 3, ly == 7, lz == 7, blocks)) return false;
+    for (int k = 0; k < 4; ++k) pairs[k] = &blocks[k]->voxels[(x & 7) + yz_offset(ly, lz, k)];
+    return true;
+  }
+
   /// TSDF gradient (per voxel) at the voxel nearest to g by central differences of its six
   /// neighbours: 7 voxel reads, for kernels that cannot afford trilinear differences. False when
   /// a neighbour is unallocated or unobserved.
@@ -401,26 +422,6 @@ class TsdfSampler {
   /// cell's first corner; the next one wraps to 0 in the next block).
   static int yz_offset(int ly, int lz, int k) {
     return ((ly + (k & 1)) & 7) * kBlockSize + ((lz + (k >> 1)) & 7) * kBlockSize * kBlockSize;
-  }
-
-  /// The first voxels of the four x pairs (corners 0-1, 2-3, 4-5, 6-7) of the cell at (x, y, z),
-  /// whose pairs each lie in one block ((x & 7) != 7): one block, or two or four when the cell
-  /// straddles y or z block borders, each found once. False when one of them is missing.
-  bool x_pairs(int x, int y, int z, const Voxel** pairs) {
-    const int ly = y & 7, lz = z & 7;
-    if (ly != 7 && lz != 7) {
-      const Voxel* v0 = voxel(x, y, z);
-      if (v0 == nullptr) return false;
-      pairs[0] = v0;
-      pairs[1] = v0 + kBlockSize;
-      pairs[2] = v0 + kBlockSize * kBlockSize;
-      pairs[3] = v0 + kBlockSize + kBlockSize * kBlockSize;
-      return true;
-    }
-    const VoxelBlock* blocks[4];
-    if (!yz_blocks(x >> 3, y >> 3, z >> 3, ly == 7, lz == 7, blocks)) return false;
-    for (int k = 0; k < 4; ++k) pairs[k] = &blocks[k]->voxels[(x & 7) + yz_offset(ly, lz, k)];
-    return true;
   }
 
 #if defined(__SSE2__)

@@ -166,6 +166,45 @@ TEST(Raycast, DepthHintFindsTheSameSurface) {
   EXPECT_THROW(raycast(volume, kKinect, pose, FusionConfig{}, with, &depth_small()), Error);
 }
 
+TEST(Raycast, HintedRaysSearchedEightAtATimeMatchTheOneAtATimeSearch) {
+  // raycast() searches the hinted rays of a row eight per AVX2 vector (on a CPU with AVX2);
+  // raycast_portable() one at a time. Same hits, vertices and normals bit for bit: with the
+  // frame's own depth as the hint, and with hints that are off (the search fails and the ray
+  // marches the hint's window), missing (the whole ray is marched) or outside the depth range,
+  // at full and half resolution (rows whose hinted rays do not fill the last vector).
+  const FusedScene fused;
+  const Pose pose = test::look_at({0.4, -0.2, 0.1}, {0, 0.1, 1.6});
+  TsdfVolume volume{FusionConfig{}};
+  Image<float> depth;
+  for (const Pose& p : {test::look_at({0, 0, 0}, {0, 0.1, 1.6}), pose}) {
+    test::render(fused.scene, kKinect, p, depth, nullptr, 0.003, p.translation().x() > 0 ? 5 : 6);
+    volume.integrate(depth, kKinect, p);
+  }
+  for (const int level : {0, 1}) {
+    const Intrinsics k = kKinect.scaled(level);
+    Image<float> hint;
+    test::render(fused.scene, k, pose, hint, nullptr, 0.003, 5);
+    for (const bool perturbed : {false, true}) {
+      if (perturbed)
+        for (std::size_t i = 0; i < hint.size(); ++i) {
+          float& d = hint.data()[i];
+          if (i % 7 == 0) d += 0.05f;  // beyond the search, inside the window
+          if (i % 11 == 0) d = 0.0f;   // no hint
+          if (i % 13 == 0) d -= 0.2f;  // beyond the window
+          if (i % 17 == 0) d = 50.0f;  // beyond the depth range
+        }
+      RaycastResult fast, portable;
+      raycast(volume, k, pose, FusionConfig{}, fast, &hint);
+      raycast_portable(volume, k, pose, FusionConfig{}, portable, &hint);
+      EXPECT_GT(fast.hits, k.width * k.height / 2) << "level " << level;
+      EXPECT_EQ(fast.hits, portable.hits);
+      EXPECT_TRUE(fast.depth_m == portable.depth_m) << "level " << level << " " << perturbed;
+      EXPECT_TRUE(fast.maps.vertices == portable.maps.vertices);
+      EXPECT_TRUE(fast.maps.normals == portable.maps.normals);
+    }
+  }
+}
+
 TEST(Raycast, RaysCrossingLongEmptySpaceAgreeWithTheReference) {
   // A small ball at 1 m and a wall 4.5 m away: most rays cross metres of space without a block,
   // which the march jumps a region of 4^3 blocks at a time, and the rays grazing the ball pass
