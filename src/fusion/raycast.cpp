@@ -380,12 +380,12 @@ bool search_near(TsdfSampler& sampler, const Ray& ray, float d, float s_begin, f
   return false;
 }
 
-/// Runs a hinted ray to its end: the refined hit of its bracket (`found`), else, or when the
-/// bracket has no + to - order or the hit no normal, a march of the window around the hint.
+/// Runs a hinted ray to its end: the refined hit of its bracket (`found`), else, or when the hit
+/// has no normal, a march of the window around the hint.
 void finish_hinted_ray(TsdfSampler& sampler, const Ray& ray, int x, int y, float d, float s_begin,
                        float s_end, bool found, const Bracket& b, float vs, float trunc,
                        const Eigen::Matrix3f& R_camera_world, RaycastResult& result) {
-  if (found && b.f0 >= 0.0f && b.f1 < 0.0f) {
+  if (found) {
     write_hit(sampler, ray, refine_crossing(sampler, ray, vs, trunc, b.s0, b.f0, b.s1, b.f1),
               R_camera_world, result, x, y);
     if (result.depth_m(x, y) > 0.0f) return;
@@ -591,9 +591,6 @@ void raycast_impl(const TsdfVolume& volume, const Intrinsics& intrinsics,
   const RaySetup setup(volume, intrinsics, T_world_camera);
   const float vs = volume.voxel_size_m();
   const float trunc = volume.truncation_m();
-#if !defined(AOSCAN_RAYCAST_AVX2)
-  simd = false;
-#endif
 
   tbb::parallel_for(
       tbb::blocked_range<int>(0, intrinsics.height, 4), [&](const tbb::blocked_range<int>& rows) {

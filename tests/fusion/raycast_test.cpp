@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 
 #include "core/status.h"
+#include "fusion/simd.h"
 #include "test_scenes.h"
 
 namespace aoscan {
@@ -172,6 +173,11 @@ TEST(Raycast, HintedRaysSearchedEightAtATimeMatchTheOneAtATimeSearch) {
   // frame's own depth as the hint, and with hints that are off (the search fails and the ray
   // marches the hint's window), missing (the whole ray is marched) or outside the depth range,
   // at full and half resolution (rows whose hinted rays do not fill the last vector).
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  if (!cpu_has_avx2()) GTEST_SKIP() << "this CPU has no AVX2: raycast() is raycast_portable()";
+#else
+  GTEST_SKIP() << "no AVX2 path on this architecture: raycast() is raycast_portable()";
+#endif
   const FusedScene fused;
   const Pose pose = test::look_at({0.4, -0.2, 0.1}, {0, 0.1, 1.6});
   TsdfVolume volume{FusionConfig{}};
