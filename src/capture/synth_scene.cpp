@@ -332,6 +332,43 @@ double AnalyticScene::signed_distance(const Eigen::Vector3d& p) const {
   return best;
 }
 
+std::optional<SurfacePoint> AnalyticScene::nearest_surface_point(const Eigen::Vector3d& p,
+                                                                 double max_distance_m) const {
+  // How far above a candidate the space must be free of solids: far below any feature of a scene,
+  // far above the rounding of coordinates of a few metres.
+  constexpr double kProbeM = 1e-7;
+  std::optional<SurfacePoint> best;
+  double best_distance = max_distance_m;
+  const auto consider = [&](const Eigen::Vector3d& q, const Eigen::Vector3d& normal) {
+    const double d = (q - p).norm();
+    if (!(d <= best_distance) || (best && d == best_distance)) return;
+    // Hidden against another solid: the probe lies kProbeM deep in it. At the line where two faces
+    // meet the probe reads 0 up to rounding.
+    if (signed_distance(q + kProbeM * normal) < -0.5 * kProbeM) return;
+    best = SurfacePoint{q, normal};
+    best_distance = d;
+  };
+  for (const SceneBox& box : boxes_) {
+    const Eigen::Vector3d clamped = p.cwiseMax(box.min).cwiseMin(box.max);
+    for (int a = 0; a < 3; ++a) {
+      for (int side = 0; side < 2; ++side) {
+        Eigen::Vector3d q = clamped;
+        q[a] = side == 0 ? box.min[a] : box.max[a];
+        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+        normal[a] = side == 0 ? -1.0 : 1.0;
+        consider(q, normal);
+      }
+    }
+  }
+  for (const SceneSphere& s : spheres_) {
+    const Eigen::Vector3d v = p - s.centre;
+    const double len = v.norm();
+    const Eigen::Vector3d normal = len > 0.0 ? Eigen::Vector3d(v / len) : Eigen::Vector3d::UnitZ();
+    consider(s.centre + s.radius * normal, normal);
+  }
+  return best;
+}
+
 TriangleMesh AnalyticScene::to_mesh() const {
   TriangleMesh mesh;
   for (const SceneBox& box : boxes_) append_box(box, &mesh);

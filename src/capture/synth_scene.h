@@ -3,6 +3,7 @@
 /// distances and a triangle mesh: the ground truth of the synthetic `synth:` source.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -38,6 +39,12 @@ struct SceneBox {
 struct SceneSphere {
   Eigen::Vector3d centre;
   double radius;
+};
+
+/// A point of a scene's surface and the outward unit normal there (world frame, metres).
+struct SurfacePoint {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
 };
 
 /// Indices of some of a scene's primitives (e.g. those a view frustum can reach), ascending.
@@ -82,6 +89,16 @@ class AnalyticScene {
   /// Signed distance (metres): negative inside a primitive (min over primitives of their signed
   /// distances; exact outside the solids). +infinity for an empty scene.
   double signed_distance(const Eigen::Vector3d& p) const;
+  /// The point of the union's surface nearest to `p` (inside or outside the solids), with its
+  /// outward normal, when it lies within max_distance_m; nullopt otherwise. Candidates are the
+  /// nearest point of every box face (clamped to the face) with the face's normal and of every
+  /// sphere; a candidate counts when the space just above it is not inside a solid (a face hidden
+  /// against a touching primitive is not surface; a point on the line where two faces meet is).
+  /// Ties go to the candidate met first: boxes before spheres, in the order they were added, faces
+  /// -x, +x, -y, +y, -z, +z. Exact, unlike a projection along the gradient of signed_distance(),
+  /// which inside the touching solids leads to their hidden faces.
+  std::optional<SurfacePoint> nearest_surface_point(const Eigen::Vector3d& p,
+                                                    double max_distance_m) const;
 
   /// The surface as triangles (metres, world frame) with outward per-vertex normals, counter-
   /// clockwise seen from outside. Boxes: 2 triangles per face, 4 vertices per face. Spheres:

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include "capture/synth_scene.h"
@@ -140,6 +141,52 @@ TEST(AnalyticScene, DistancesToBoxFaceEdgeCornerAndSphere) {
   EXPECT_NEAR(scene.signed_distance({3, 0.1, 0}), -0.4, 1e-12);
   // Between the two: nearer to the sphere (2.5 - 2.2 = 0.3) than to the box (1.2).
   EXPECT_NEAR(scene.distance({2.2, 0, 0}), 0.3, 1e-12);
+}
+
+TEST(AnalyticScene, NearestSurfacePointOfFacesEdgesAndSphere) {
+  AnalyticScene scene("unit");
+  scene.add_box({0, 0, 0}, {1, 1, 1});
+  scene.add_sphere({3, 0, 0}, 0.5);
+  const auto expect_point = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& point,
+                                const Eigen::Vector3d& normal) {
+    const std::optional<SurfacePoint> s = scene.nearest_surface_point(p, 1.0);
+    ASSERT_TRUE(s) << p.transpose();
+    expect_vector_near(s->p, point, 1e-12);
+    expect_vector_near(s->normal, normal, 1e-12);
+  };
+  expect_point({0.5, 0.5, 1.3}, {0.5, 0.5, 1.0}, {0, 0, 1});  // above a face
+  expect_point({0.5, 0.5, 0.9}, {0.5, 0.5, 1.0}, {0, 0, 1});  // inside, below the same face
+  // Inside, nearer to the x = 1 face than to the y = 1 face by 0.1 mm: the signed distance's
+  // finite-difference gradient blends the two normals here.
+  expect_point({0.9973, 0.9972, 0.5}, {1.0, 0.9972, 0.5}, {1, 0, 0});
+  // Beyond an edge: the edge point, with the normal of the first face listed there (+x).
+  expect_point({1.3, 0.5, 1.4}, {1.0, 0.5, 1.0}, {1, 0, 0});
+  expect_point({3.0, 0.0, 1.0}, {3.0, 0.0, 0.5}, {0, 0, 1});  // sphere, from outside
+  expect_point({3.0, 0.1, 0.0}, {3.0, 0.5, 0.0}, {0, 1, 0});  // and from inside
+  EXPECT_FALSE(scene.nearest_surface_point({0.5, 0.5, 1.3}, 0.29));
+  EXPECT_FALSE(scene.nearest_surface_point({0.5, 0.5, std::nan("")}, 1.0));
+}
+
+TEST(AnalyticScene, NearestSurfacePointSkipsFacesHiddenAgainstAnotherSolid) {
+  // The corner scene's cabinet stands against the wall x = 0: their touching faces are not surface.
+  const AnalyticScene scene = AnalyticScene::make("corner");
+  const auto nearest = [&](const Eigen::Vector3d& p) {
+    const std::optional<SurfacePoint> s = scene.nearest_surface_point(p, 0.02);
+    EXPECT_TRUE(s) << p.transpose();
+    return s.value_or(SurfacePoint{});
+  };
+  // Inside the cabinet, 1 mm from its back (against the wall) and 4 mm from its side y = 1.6.
+  SurfacePoint s = nearest({0.001, 1.604, 0.3});
+  expect_vector_near(s.p, {0.001, 1.6, 0.3}, 1e-12);
+  expect_vector_near(s.normal, {0, -1, 0}, 1e-12);
+  // Inside the wall behind the cabinet: the line where the cabinet's side meets the wall.
+  s = nearest({-0.002, 1.604, 0.3});
+  expect_vector_near(s.p, {0.0, 1.6, 0.3}, 1e-12);
+  expect_vector_near(s.normal, {0, -1, 0}, 1e-12);
+  // In front of the wall beside the cabinet: the wall.
+  s = nearest({0.003, 1.59, 0.3});
+  expect_vector_near(s.p, {0.0, 1.59, 0.3}, 1e-12);
+  expect_vector_near(s.normal, {1, 0, 0}, 1e-12);
 }
 
 TEST(AnalyticScene, RejectsDegeneratePrimitives) {

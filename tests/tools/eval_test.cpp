@@ -185,6 +185,34 @@ TEST(AoEval, AffineCopyOfTheReferenceCorrelatesPerfectly) {
   EXPECT_LT(evaluate_mesh_ao(sampled, scene, Pose(), 0.2, 1000, 8).pearson_r, -0.95);
 }
 
+TEST(AoEval, VerticesInsideBoxesNearEdgesAndCreasesGetTheirSurfacePointsReference) {
+  // Two vertices of a fused mesh that lie inside the corner scene's solids, where the projection
+  // along the signed distance's gradient used to end inside a box and read 0 (every reference ray
+  // hitting at once): next to a table leg's vertical edge, and in the crease between the wall x = 0
+  // and the cabinet's side y = 1.6.
+  const AnalyticScene scene = AnalyticScene::make("corner");
+  const RayCaster cast = [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                                  double t_max) -> std::optional<double> {
+    Hit hit;
+    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
+    return hit.t;
+  };
+  TriangleMesh mesh;
+  mesh.vertices = {{0.517258f, 1.167196f, 0.534857f}, {-0.002f, 1.604f, 0.3f}};
+  mesh.quality = {0.9f, 0.5f};
+  const AoEvalResult r = evaluate_mesh_ao(mesh, scene, Pose(), 0.2, 1000, 16);
+  ASSERT_EQ(r.vertices, 2u);
+  EXPECT_EQ(r.off_surface, 0u);
+  // The leg's face x = 0.52 (the nearest, 2.7 mm away): its reference from just above it.
+  EXPECT_NEAR(r.pairs[0].p.x(), 0.52, 1e-12);
+  EXPECT_EQ(r.pairs[0].reference,
+            reference_obscurance(cast, {0.52 + 1e-5, 1.167196f, 0.534857f}, {1, 0, 0}, 0.2, 16,
+                                 0.0));
+  EXPECT_GT(r.pairs[0].reference, 0.8);
+  // The crease line: the wall blocks half the hemisphere of the cabinet's side at distance ~0.
+  EXPECT_NEAR(r.pairs[1].reference, 0.5, 0.01);
+}
+
 TEST(AoEval, VerticesOffTheSurfaceAreSkipped) {
   const AnalyticScene scene = AnalyticScene::make("corner");
   TriangleMesh mesh;

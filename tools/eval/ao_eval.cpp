@@ -5,11 +5,33 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include "ao/reference_ao.h"
 #include "core/status.h"
 
 namespace aoscan::eval {
+namespace {
+
+/// Reference rays start this far (m) above the surface point, along its normal.
+constexpr double kRayOffsetM = 1e-5;
+
+/// Where the reference rays of surface point `s` start: kRayOffsetM above it along its normal, and
+/// as far off any other face that passes within half that distance. A point on the line where a
+/// wall meets a cabinet's side lies in the wall's plane; a ray starting there and leaving the wall
+/// would count as starting inside it and read fully occluded.
+Eigen::Vector3d ray_origin(const AnalyticScene& scene, const SurfacePoint& s) {
+  Eigen::Vector3d origin = s.p + kRayOffsetM * s.normal;
+  for (int i = 0; i < 3; ++i) {  // three faces meet at a corner
+    const std::optional<SurfacePoint> other =
+        scene.nearest_surface_point(origin, 0.5 * kRayOffsetM);
+    if (!other) break;
+    origin += kRayOffsetM * other->normal;
+  }
+  return origin;
+}
+
+}  // namespace
 
 double pearson(const std::vector<double>& a, const std::vector<double>& b) {
   const std::size_t n = std::min(a.size(), b.size());
@@ -41,31 +63,20 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
     if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
     return hit.t;
   };
-  const std::size_t step = std::max<std::size_t>(1, mesh.vertices.size() / std::max<std::size_t>(max_vertices, 1));
+  const std::size_t step =
+      std::max<std::size_t>(1, mesh.vertices.size() / std::max<std::size_t>(max_vertices, 1));
   std::vector<double> mesh_ao, reference;
-  constexpr double kH = 1e-4;  // finite-difference step of the distance gradient (m)
   for (std::size_t i = 0; i < mesh.vertices.size(); i += step) {
-    const Eigen::Vector3d p = T_scene_mesh * mesh.vertices[i].cast<double>();
-    const double sd = scene.signed_distance(p);
-    if (!std::isfinite(sd) || std::abs(sd) > max_offset_m) {
+    const std::optional<SurfacePoint> s =
+        scene.nearest_surface_point(T_scene_mesh * mesh.vertices[i].cast<double>(), max_offset_m);
+    if (!s) {
       ++r.off_surface;
       continue;
     }
-    Eigen::Vector3d grad;
-    for (int a = 0; a < 3; ++a) {
-      Eigen::Vector3d e = Eigen::Vector3d::Zero();
-      e[a] = kH;
-      grad[a] = scene.signed_distance(p + e) - scene.signed_distance(p - e);
-    }
-    if (!(grad.norm() > 0)) {
-      ++r.off_surface;
-      continue;
-    }
-    const Eigen::Vector3d n = grad.normalized();
-    const Eigen::Vector3d on_surface = p - sd * n;
     mesh_ao.push_back(mesh.quality[i]);
-    reference.push_back(reference_obscurance(cast, on_surface, n, t_max_m, strata, 1e-5));
-    r.pairs.push_back({on_surface, mesh_ao.back(), reference.back()});
+    reference.push_back(
+        reference_obscurance(cast, ray_origin(scene, *s), s->normal, t_max_m, strata, 0.0));
+    r.pairs.push_back({s->p, mesh_ao.back(), reference.back()});
   }
   r.vertices = mesh_ao.size();
   if (r.vertices == 0) return r;

@@ -16,10 +16,11 @@
 namespace aoscan::eval {
 
 struct AoEvalResult {
-  std::size_t vertices = 0;        ///< vertices compared
-  std::size_t off_surface = 0;     ///< sampled vertices skipped: farther than max_offset_m from the scene
-  double pearson_r = 0;            ///< correlation of mesh AO with the reference
-  double rmse = 0;                 ///< root-mean-square difference
+  std::size_t vertices = 0;     ///< vertices compared
+  std::size_t off_surface = 0;  ///< sampled vertices skipped: no surface point within max_offset_m
+                                ///< (AnalyticScene::nearest_surface_point())
+  double pearson_r = 0;         ///< correlation of mesh AO with the reference
+  double rmse = 0;              ///< root-mean-square difference
   double mean_mesh = 0, mean_reference = 0;
   /// Per compared vertex: its scene point (scene frame, m), the mesh AO and the reference AO.
   struct Pair {
@@ -31,8 +32,9 @@ struct AoEvalResult {
 
 /// Pearson r of `mesh.quality` against Eq. 1 obscurance (rho = smoothstep(0, t_max, d), 1 without
 /// a hit within t_max, strata^2 cosine-weighted rays) at the scene point nearest each vertex, with
-/// the scene's exact normal there. Vertices are mapped into the scene frame by T_scene_mesh; at
-/// most max_vertices of them, evenly spread over the vertex list, are compared.
+/// the scene's exact normal there (AnalyticScene::nearest_surface_point()). Vertices are mapped
+/// into the scene frame by T_scene_mesh; at most max_vertices of them, evenly spread over the
+/// vertex list, are compared.
 AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& scene,
                               const Pose& T_scene_mesh, double t_max_m,
                               std::size_t max_vertices = 20000, int strata = 16,
