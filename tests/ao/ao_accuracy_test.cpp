@@ -22,6 +22,7 @@
 #include "ao/mvao_grid.h"
 #include "ao/reference_ao.h"
 #include "ao/ssao.h"
+#include "ao_test_util.h"
 #include "capture/synth_scene.h"
 #include "capture/synth_source.h"
 
@@ -116,12 +117,7 @@ std::map<Key, Score> measure(const EvalSetup& setup, const std::vector<AoConfig>
                           T.rotation() * maps.normals(x, y).cast<double>(), 0.0});
       }
   }
-  const RayCaster cast = [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                                  double t_max) -> std::optional<double> {
-    Hit hit;
-    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
-    return hit.t;
-  };
+  const RayCaster cast = test::caster(scene);
   const double t_max = configs.front().t_max_m;
   tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t i) {
     points[i].reference = reference_obscurance(cast, points[i].p, points[i].n, t_max, setup.strata);

@@ -1,19 +1,33 @@
 /// @file ao_test_util.h
 /// @brief Test helpers for src/ao: exact point maps of a camera inside a convex set of planes
-/// (open plane, inner corners of rooms), rendered analytically.
+/// (open plane, inner corners of rooms), rendered analytically, and the reference's ray caster
+/// over an analytic scene.
 #pragma once
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "ao/reference_ao.h"
+#include "capture/synth_scene.h"
 #include "core/intrinsics.h"
 #include "core/pose.h"
 #include "fusion/point_maps.h"
 
 namespace aoscan::test {
+
+/// The reference's ray caster over an analytic scene (the scene must outlive it).
+inline RayCaster caster(const AnalyticScene& scene) {
+  return [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                  double t_max) -> std::optional<double> {
+    Hit hit;
+    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
+    return hit.t;
+  };
+}
 
 /// A plane n . x = offset in the world frame, seen from the side its unit normal n points into.
 struct Plane {

@@ -8,19 +8,13 @@
 
 #include <gtest/gtest.h>
 
+#include "ao_test_util.h"
 #include "capture/synth_scene.h"
 
 namespace aoscan {
 namespace {
 
-RayCaster caster(const AnalyticScene& scene) {
-  return [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                  double t_max) -> std::optional<double> {
-    Hit hit;
-    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
-    return hit.t;
-  };
-}
+using test::caster;
 
 /// Floor z <= 0, wall x <= 0 and (optionally) wall y <= 0, 50 m wide: infinite within t_max.
 AnalyticScene corner(bool three_planes) {

@@ -160,12 +160,7 @@ TEST(AoEval, AffineCopyOfTheReferenceCorrelatesPerfectly) {
   TriangleMesh mesh = scene.to_mesh();
   // Quality = an affine function of the exact reference at every vertex → r = 1; the mesh lies on
   // the scene, so nothing is off-surface.
-  const RayCaster cast = [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                                  double t_max) -> std::optional<double> {
-    Hit hit;
-    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
-    return hit.t;
-  };
+  const RayCaster cast = scene_ray_caster(scene);
   const std::size_t step = mesh.vertices.size() / 300 + 1;
   TriangleMesh sampled;
   for (std::size_t i = 0; i < mesh.vertices.size(); i += step) {
@@ -191,12 +186,7 @@ TEST(AoEval, VerticesInsideBoxesNearEdgesAndCreasesGetTheirSurfacePointsReferenc
   // hitting at once): next to a table leg's vertical edge, and in the crease between the wall x = 0
   // and the cabinet's side y = 1.6.
   const AnalyticScene scene = AnalyticScene::make("corner");
-  const RayCaster cast = [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                                  double t_max) -> std::optional<double> {
-    Hit hit;
-    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
-    return hit.t;
-  };
+  const RayCaster cast = scene_ray_caster(scene);
   TriangleMesh mesh;
   mesh.vertices = {{0.517258f, 1.167196f, 0.534857f}, {-0.002f, 1.604f, 0.3f}};
   mesh.quality = {0.9f, 0.5f};

@@ -52,17 +52,21 @@ double pearson(const std::vector<double>& a, const std::vector<double>& b) {
   return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
 }
 
+RayCaster scene_ray_caster(const AnalyticScene& scene) {
+  return [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                  double t_max) -> std::optional<double> {
+    Hit hit;
+    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
+    return hit.t;
+  };
+}
+
 AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& scene,
                               const Pose& T_scene_mesh, double t_max_m, std::size_t max_vertices,
                               int strata, double max_offset_m) {
   AoEvalResult r;
   if (mesh.vertices.empty() || mesh.quality.size() != mesh.vertices.size()) return r;
-  const RayCaster cast = [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                                  double t_max) -> std::optional<double> {
-    Hit hit;
-    if (!scene.intersect(Ray{o, d}, 0.0, t_max, &hit)) return std::nullopt;
-    return hit.t;
-  };
+  const RayCaster cast = scene_ray_caster(scene);
   const std::size_t step =
       std::max<std::size_t>(1, mesh.vertices.size() / std::max<std::size_t>(max_vertices, 1));
   std::vector<double> mesh_ao, reference;

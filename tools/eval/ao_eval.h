@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "ao/reference_ao.h"
 #include "capture/synth_scene.h"
 #include "core/mesh.h"
 #include "core/pose.h"
@@ -39,6 +40,9 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
                               const Pose& T_scene_mesh, double t_max_m,
                               std::size_t max_vertices = 20000, int strata = 16,
                               double max_offset_m = 0.02);
+
+/// The reference's ray caster over `scene` (which must outlive it): the first hit from t = 0.
+RayCaster scene_ray_caster(const AnalyticScene& scene);
 
 /// Writes `result.pairs` as CSV with the header `x,y,z,mesh_ao,reference`; a file that cannot be
 /// written is a usage_error naming it.
