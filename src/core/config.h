@@ -83,7 +83,8 @@ struct FusionConfig {
   double raycast_max_depth_m = 5.0;  ///< raycast: farthest depth searched along a ray (m)
   double mesh_min_weight = 1.0;      ///< mesh: cubes with a corner of lower weight are not meshed
   /// Resolution of the model raycast (the ICP reference and SSAO input) as a pyramid level of the
-  /// depth frame: 0 = full, 1 = half (a quarter of the rays), 2 = quarter.
+  /// depth frame: 0 = full, 1 = half (a quarter of the rays), 2 = quarter; never coarser than 320
+  /// pixels across (Reconstruction keeps small frames' raycast fine enough to track).
   int raycast_level = 1;
 
   template <class V>
@@ -101,7 +102,9 @@ struct FusionConfig {
     v.number("mesh_min_weight", mesh_min_weight,
              "mesh: cubes with a corner voxel of lower TSDF weight are dropped", 0.0, 1e6);
     v.integer("raycast_level", raycast_level,
-              "model raycast resolution as a pyramid level: 0 full, 1 half, 2 quarter", 0, 2);
+              "model raycast resolution as a pyramid level: 0 full, 1 half, 2 quarter; never "
+              "coarser than 320 pixels across",
+              0, 2);
   }
 };
 
