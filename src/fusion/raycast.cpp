@@ -159,6 +159,18 @@ void depth_bounds(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_w
   const float inf = std::numeric_limits<float>::infinity();
   std::vector<std::vector<float>> group_min(kBoundsGroups), group_max(kBoundsGroups);
   const int blocks = volume.block_count();
+  // The planes through the camera centre beyond which a point projects off the image (u < 0,
+  // u > width - 1, v < 0, v > height - 1), unit normals pointing inwards. A block whose bounding
+  // sphere lies wholly behind the near plane or outside one of them adds nothing below (every
+  // point it would include falls off the image), so one matrix-vector product rejects it; most
+  // blocks of a large model are out of view. The sphere is padded against rounding.
+  const float edge = kBlockSize * vs;
+  const float radius = 0.5f * std::sqrt(3.0f) * edge * 1.01f + 1e-4f;
+  const Eigen::Vector3f side[4] = {
+      Eigen::Vector3f(fx, 0.0f, cx).normalized(),
+      Eigen::Vector3f(-fx, 0.0f, static_cast<float>(k.width - 1) - cx).normalized(),
+      Eigen::Vector3f(0.0f, fy, cy).normalized(),
+      Eigen::Vector3f(0.0f, -fy, static_cast<float>(k.height - 1) - cy).normalized()};
 
   tbb::parallel_for(0, kBoundsGroups, [&](int group) {
     std::vector<float>& gmin = group_min[group];
@@ -169,7 +181,11 @@ void depth_bounds(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_w
     const int end = static_cast<int>(static_cast<long long>(blocks) * (group + 1) / kBoundsGroups);
     for (int i = begin; i < end; ++i) {
       const Eigen::Vector3f lo = (volume.block_coord(i) * kBlockSize).cast<float>() * vs;
-      const float edge = kBlockSize * vs;
+      const Eigen::Vector3f centre = R * (lo + Eigen::Vector3f::Constant(0.5f * edge)) + t;
+      if (centre.z() + radius < min_depth || side[0].dot(centre) < -radius ||
+          side[1].dot(centre) < -radius || side[2].dot(centre) < -radius ||
+          side[3].dot(centre) < -radius)
+        continue;
       float z_lo = inf, z_hi = -inf, u_lo = inf, u_hi = -inf, v_lo = inf, v_hi = -inf;
       Eigen::Vector3f p[8];
       for (int c = 0; c < 8; ++c) {
