@@ -13,13 +13,13 @@
 
 #include <Eigen/Core>
 
+#include "ao/ao_config.h"
 #include "ao/morton.h"
 #include "core/block_hash_map.h"
-#include "core/config.h"
 #include "core/image.h"
 #include "core/pose.h"
 #include "core/status.h"
-#include "fusion/point_maps.h"
+#include "geometry/point_maps.h"
 
 namespace aoscan {
 

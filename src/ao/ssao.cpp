@@ -11,7 +11,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 
-#include "fusion/normal_smoothing.h"
+#include "geometry/normal_smoothing.h"
 
 namespace aoscan {
 namespace {

@@ -50,9 +50,9 @@
 
 #include <Eigen/Core>
 
-#include "core/config.h"
+#include "ao/ao_config.h"
 #include "core/image.h"
-#include "fusion/point_maps.h"
+#include "geometry/point_maps.h"
 
 namespace aoscan {
 

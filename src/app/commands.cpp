@@ -10,8 +10,8 @@
 #include "capture/output_file.h"
 #include "capture/recorder.h"
 #include "capture/source.h"
-#include "core/config.h"
 #include "core/log.h"
+#include "pipeline/config.h"
 #include "pipeline/live_recorder.h"
 #include "pipeline/session.h"
 

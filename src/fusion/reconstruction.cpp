@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 
-#include "fusion/marching_cubes.h"
+#include "fusion/tsdf/marching_cubes.h"
 
 namespace aoscan {
 namespace {
@@ -27,7 +27,7 @@ Pose blend(const Pose& a, const Pose& b, double w) {
 
 }  // namespace
 
-Reconstruction::Reconstruction(const Config& config) : config_(config), volume_(config.fusion) {}
+Reconstruction::Reconstruction(const ReconstructionConfig& config) : config_(config), volume_(config.fusion) {}
 
 FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
                                    std::shared_ptr<RaycastResult> raycast_out, bool integrate) {

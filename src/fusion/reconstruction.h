@@ -6,13 +6,13 @@
 #include <cstddef>
 #include <memory>
 
-#include "core/config.h"
 #include "core/mesh.h"
 #include "core/pose.h"
-#include "fusion/icp.h"
-#include "fusion/preprocess.h"
-#include "fusion/raycast.h"
-#include "fusion/tsdf_volume.h"
+#include "fusion/preprocess/preprocess.h"
+#include "fusion/reconstruction_config.h"
+#include "fusion/tracking/icp.h"
+#include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/tsdf_volume.h"
 
 namespace aoscan {
 
@@ -30,7 +30,7 @@ struct FusionStep {
 /// frame of the model. Only this object writes the TSDF; raycasts it publishes are immutable.
 class Reconstruction {
  public:
-  explicit Reconstruction(const Config& config);
+  explicit Reconstruction(const ReconstructionConfig& config);
 
   /// Tracks `frame` against the last model raycast (from the last good pose), integrates it unless
   /// tracking is lost, and raycasts the model at the new pose into `raycast_out`, which becomes the
@@ -57,7 +57,7 @@ class Reconstruction {
   std::size_t frames_lost() const { return frames_lost_; }
 
  private:
-  Config config_;
+  ReconstructionConfig config_;
   TsdfVolume volume_;
   IcpWorkspace icp_workspace_;
   std::shared_ptr<const RaycastResult> model_;

@@ -18,14 +18,14 @@
 #include <vector>
 
 #include "capture/source.h"
-#include "core/config.h"
 #include "core/depth_frame.h"
 #include "core/image.h"
 #include "core/mesh.h"
 #include "core/status.h"
-#include "fusion/preprocess.h"
+#include "fusion/preprocess/preprocess.h"
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
+#include "pipeline/config.h"
 #include "pipeline/stage_stats.h"
 
 namespace aoscan {

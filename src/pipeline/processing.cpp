@@ -7,6 +7,8 @@
 #include "ao/mesh_ao.h"
 #include "ao/ssao.h"
 #include "core/log.h"
+#include "fusion/preprocess/bilateral.h"
+#include "fusion/preprocess/pyramid.h"
 #include "io/ply.h"
 #include "pipeline/view_products.h"
 #include "pipeline/volume_export.h"

@@ -13,12 +13,12 @@
 
 #include "ao/mvao_grid.h"
 #include "ao/ssao.h"
-#include "core/config.h"
 #include "core/mesh.h"
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
 #include "io/vdb.h"
 #include "pipeline/ao_load_shedder.h"
+#include "pipeline/config.h"
 #include "pipeline/frame_pool.h"
 #include "pipeline/pipeline.h"
 

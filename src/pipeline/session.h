@@ -8,7 +8,7 @@
 #include <string>
 
 #include "capture/source.h"
-#include "core/config.h"
+#include "pipeline/config.h"
 #include "pipeline/pipeline.h"
 #include "render/view_commands.h"
 

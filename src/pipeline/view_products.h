@@ -12,7 +12,7 @@
 #include "core/image.h"
 #include "core/mesh.h"
 #include "core/pose.h"
-#include "fusion/point_maps.h"
+#include "geometry/point_maps.h"
 
 namespace aoscan {
 

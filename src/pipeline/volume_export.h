@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "fusion/tsdf_volume.h"
+#include "fusion/tsdf/tsdf_volume.h"
 #include "io/vdb.h"
 
 namespace aoscan {

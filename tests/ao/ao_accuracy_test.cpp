@@ -20,11 +20,11 @@
 #include <tbb/parallel_for.h>
 
 #include "ao/mvao_grid.h"
-#include "ao/reference_ao.h"
 #include "ao/ssao.h"
-#include "ao_test_util.h"
-#include "capture/synth_scene.h"
-#include "capture/synth_source.h"
+#include "sim/reference_ao.h"
+#include "sim/synth_camera.h"
+#include "sim/synth_scene.h"
+#include "support/ao_test_util.h"
 
 namespace aoscan {
 namespace {

@@ -12,8 +12,8 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "ao/ao_test_util.h"
-#include "fusion/icp.h"
+#include "fusion/tracking/icp.h"
+#include "support/ao_test_util.h"
 
 namespace aoscan {
 namespace {

@@ -14,7 +14,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "app/cli_util.h"
+#include "support/cli_util.h"
 
 namespace fs = std::filesystem;
 

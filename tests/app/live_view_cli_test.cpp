@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "app/cli_util.h"
-#include "render/private_xvfb.h"
+#include "support/cli_util.h"
+#include "support/private_xvfb.h"
 // Last: Xlib's macros (Status, Bool, None) must not reach the headers above.
 #include <X11/Xatom.h>
 #include <X11/Xlib.h>

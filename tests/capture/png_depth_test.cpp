@@ -11,7 +11,7 @@
 #include <png.h>
 #include <zlib.h>
 
-#include "io/scratch_dir.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

@@ -12,8 +12,8 @@
 #include "capture/output_file.h"
 #include "capture/tum_source.h"
 #include "io/ply.h"
-#include "io/scratch_dir.h"
 #include "io/tum.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "capture/png_depth.h"
-#include "io/scratch_dir.h"
 #include "io/tum.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

@@ -25,10 +25,10 @@
 #include <time.h>
 #include <Eigen/Eigenvalues>
 
-#include "fusion/icp.h"
-#include "fusion/marching_cubes.h"
-#include "fusion/raycast.h"
-#include "fusion/tsdf_volume.h"
+#include "fusion/tracking/icp.h"
+#include "fusion/tsdf/marching_cubes.h"
+#include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/tsdf_volume.h"
 
 namespace aoscan {
 namespace {

@@ -11,9 +11,10 @@
 
 #include <gtest/gtest.h>
 
-#include "fusion/marching_cubes.h"
-#include "fusion/preprocess.h"
-#include "fusion/synth_frames.h"
+#include "fusion/preprocess/preprocess.h"
+#include "fusion/preprocess/pyramid.h"
+#include "fusion/tsdf/marching_cubes.h"
+#include "support/synth_frames.h"
 
 namespace aoscan {
 namespace {
@@ -30,7 +31,7 @@ struct Trace {
 /// may change a frame's preprocessed maps before processing (step index, frame).
 template <class Edit>
 Trace run(Reconstruction& rec, const std::vector<int>& order, Edit edit) {
-  const Config config;
+  const ReconstructionConfig config;
   Trace r;
   PreprocessedFrame pre;
   for (std::size_t i = 0; i < order.size(); ++i) {
@@ -75,11 +76,11 @@ int lost_count(const Trace& r) {
 
 /// Rebuilds the pyramid after the maps were edited.
 void rebuild(const DepthFrame& frame, PreprocessedFrame& pre) {
-  build_pyramid(pre.filtered_m, frame.intrinsics, Config{}.preprocess, pre.pyramid);
+  build_pyramid(pre.filtered_m, frame.intrinsics, ReconstructionConfig{}.preprocess, pre.pyramid);
 }
 
 TEST(ReconstructionBadInput, AllInvalidFramesAreLostThenTrackingRecovers) {
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   const Trace r = run(rec, range(0, 25), [](int i, const DepthFrame& f, PreprocessedFrame& pre) {
     if (i < 8 || i >= 13) return;
     pre.depth_m.fill(0.0f);
@@ -101,7 +102,7 @@ TEST(ReconstructionBadInput, AllInvalidFramesAreLostThenTrackingRecovers) {
 }
 
 TEST(ReconstructionBadInput, AHandfulOfValidPixelsIsLost) {
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   // Frames 8-10 keep 48 valid pixels (a sparse 8x6 lattice): below ICP's 64 inliers.
   const Trace r = run(rec, range(0, 20), [](int i, const DepthFrame& f, PreprocessedFrame& pre) {
     if (i < 8 || i >= 11) return;
@@ -120,7 +121,7 @@ TEST(ReconstructionBadInput, AHandfulOfValidPixelsIsLost) {
 TEST(ReconstructionBadInput, ThirtyDroppedFramesAreTrackedAcross) {
   // 30 frames of this orbit are 12 cm and 2.4 degrees: within tracking's reach (15 cm, 20 deg),
   // so ICP follows the jump and the pose stays exact.
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   const Trace r = run(rec, concat(range(0, 12), range(42, 52)));
   EXPECT_EQ(lost_count(r), 0);
   for (std::size_t i = 0; i < r.steps.size(); ++i)
@@ -129,7 +130,7 @@ TEST(ReconstructionBadInput, ThirtyDroppedFramesAreTrackedAcross) {
 
 TEST(ReconstructionBadInput, AFarJumpIsLostUntilTheCameraComesBack) {
   // 170 frames ahead the camera is 1.1 m and 27 degrees away: lost; then it comes back.
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   const Trace r = run(rec, concat(concat(range(0, 12), range(182, 188)), range(12, 22)));
   EXPECT_EQ(lost_count(r), 6);
   for (int i = 12; i < 18; ++i) {
@@ -141,7 +142,7 @@ TEST(ReconstructionBadInput, AFarJumpIsLostUntilTheCameraComesBack) {
 }
 
 TEST(ReconstructionBadInput, AFarJumpWithoutReturnStaysLost) {
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   const Trace r = run(rec, concat(range(0, 12), range(182, 192)));
   EXPECT_EQ(lost_count(r), 10);
   EXPECT_EQ(rec.frames_lost(), 10u);
@@ -152,7 +153,7 @@ TEST(ReconstructionBadInput, AbsurdDepthsNeitherCrashNorPoisonPoseOrVolume) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
   const float absurd[] = {60.0f, 1e30f, -1.0f, -1e30f, nan, inf, -inf, 1e-30f};
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   // Frames 6-11: every 7th pixel of the float maps absurd (the rest is a usable frame);
   // frames 12-14: every pixel absurd.
   const Trace r = run(rec, range(0, 20), [&](int i, const DepthFrame& f, PreprocessedFrame& pre) {
@@ -182,7 +183,7 @@ TEST(ReconstructionBadInput, AbsurdDepthsNeitherCrashNorPoisonPoseOrVolume) {
 }
 
 TEST(ReconstructionBadInput, EmptyFirstFramesDoNotStartAnEmptyModel) {
-  Reconstruction rec{Config{}};
+  Reconstruction rec{ReconstructionConfig{}};
   // The camera sees nothing for 5 frames, then the corner: the model starts with the first frame
   // that has depth (its camera frame is the world frame), and everything after it is tracked.
   const Trace r = run(rec, range(0, 15), [](int i, const DepthFrame& f, PreprocessedFrame& pre) {

@@ -9,8 +9,8 @@
 
 #include <gtest/gtest.h>
 
-#include "capture/synth_source.h"
-#include "test_scenes.h"
+#include "sim/synth_camera.h"
+#include "support/test_scenes.h"
 
 namespace aoscan {
 namespace {
@@ -55,7 +55,7 @@ RunResult run_sequence(Reconstruction& rec) {
 
 TEST(Reconstruction, FullAndHalfResolutionModelsTrackTheNoisySequence) {
   for (const int level : {0, 1}) {
-    Config config;
+    ReconstructionConfig config;
     config.fusion.raycast_level = level;
     Reconstruction rec(config);
     const RunResult r = run_sequence(rec);
@@ -74,12 +74,12 @@ TEST(Reconstruction, FullAndHalfResolutionModelsTrackTheNoisySequence) {
 }
 
 TEST(Reconstruction, HintedHalfResolutionRaycastMatchesTheFullMarch) {
-  Config config;
+  ReconstructionConfig config;
   config.fusion.raycast_level = 1;
   Reconstruction rec(config);
   const RunResult r = run_sequence(rec);
   RaycastResult plain;
-  raycast(rec.volume(), kKinect.scaled(1), r.last_pose, Config{}.fusion, plain);
+  raycast(rec.volume(), kKinect.scaled(1), r.last_pose, ReconstructionConfig{}.fusion, plain);
   const RaycastResult& hinted = *r.last_model;
   int both = 0, agree = 0, only_one = 0;
   for (int y = 0; y < plain.depth_m.height(); ++y) {
@@ -101,7 +101,7 @@ TEST(Reconstruction, HintedHalfResolutionRaycastMatchesTheFullMarch) {
 /// Error along x (m) of the last of 16 frames moving 4 mm a frame along x: a ball fixes x for
 /// the first 6 frames, then it is gone and only a floor and a wall remain, whose edge runs along
 /// x, so that the data no longer say anything about the motion along it.
-double error_along_the_edge(const Config& config) {
+double error_along_the_edge(const ReconstructionConfig& config) {
   test::Scene planes;
   planes.planes.push_back({Eigen::Vector3d(0, 1, 0), 1.0});
   planes.planes.push_back({Eigen::Vector3d(0, 0, 1), 3.0});
@@ -129,7 +129,7 @@ TEST(Reconstruction, MotionAlongAWallFloorEdgeContinuesAtTheTrackedVelocity) {
   // The data fix x while the ball is in view; after that the estimate along the edge is the
   // motion prior's. Without a velocity (the previous pose as the prior) x stops where the ball
   // left, 10 frames x 4 mm behind.
-  Config config;
+  ReconstructionConfig config;
   const double with_velocity = error_along_the_edge(config);
   config.tracking.velocity_smoothing = 0.0;
   const double without = error_along_the_edge(config);
@@ -144,15 +144,15 @@ TEST(Reconstruction, SecondFrameOfANoisyRoomTracksAgainstTheFirstFramesOwnMaps) 
   // a model of one frame is that frame's raw depth, and tracking the second frame against its
   // raycast slid by 1-3 cm along the walls; against the first frame's filtered maps it is within
   // a few millimetres of the truth.
-  const std::unique_ptr<Source> source =
-      open_synth_source("synth:room?frames=2&noise=kinect&seed=1");
-  const Config config;
+  const SynthParams params = parse_synth_spec("synth:room?frames=2&noise=kinect&seed=1");
+  const AnalyticScene scene = AnalyticScene::make(params.scene);
+  const ReconstructionConfig config;
   Reconstruction rec(config);
   DepthFrame frame;
   Pose T_truth0_world;
   double error_m = 1.0;
   for (int i = 0; i < 2; ++i) {
-    ASSERT_TRUE(source->read(frame).is_ok());
+    render_synth_frame(scene, params, static_cast<std::uint64_t>(i), frame);
     if (i == 0) T_truth0_world = frame.T_world_camera_gt->inverse();
     PreprocessedFrame pre;
     preprocess_frame(frame, config.preprocess, pre);

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
-#include "io/scratch_dir.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

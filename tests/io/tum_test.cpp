@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
-#include "io/scratch_dir.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

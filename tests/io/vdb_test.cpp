@@ -11,7 +11,7 @@
 #include <openvdb/openvdb.h>
 
 #include "core/status.h"
-#include "scratch_dir.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

@@ -13,12 +13,13 @@
 #include <nlohmann/json.hpp>
 
 #include "capture/source.h"
-#include "core/config.h"
-#include "fusion/synth_frames.h"
+#include "fusion/preprocess/pyramid.h"
 #include "io/ply.h"
 #include "io/tum.h"
+#include "pipeline/config.h"
 #include "pipeline/processing.h"
 #include "pipeline/session.h"
+#include "support/synth_frames.h"
 
 namespace aoscan {
 namespace {

@@ -13,9 +13,9 @@
 
 #include "capture/synth_source.h"
 #include "core/status.h"
-#include "fusion/marching_cubes.h"
-#include "fusion/test_scenes.h"
+#include "fusion/tsdf/marching_cubes.h"
 #include "pipeline/session.h"
+#include "support/test_scenes.h"
 
 namespace aoscan {
 namespace {

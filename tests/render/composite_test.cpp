@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
-#include "io/scratch_dir.h"
 #include "render/render_test_util.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

@@ -21,8 +21,8 @@
 #include "render/gl_window.h"
 #include "render/hud.h"
 #include "render/live_view.h"
-#include "render/private_xvfb.h"
 #include "render/render_test_util.h"
+#include "support/private_xvfb.h"
 
 namespace aoscan {
 namespace {

@@ -12,10 +12,10 @@
 
 #include <gtest/gtest.h>
 
-#include "io/scratch_dir.h"
 #include "render/gl_renderer.h"
 #include "render/render_test_util.h"
 #include "render/shaders.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {

@@ -8,10 +8,10 @@
 #include <gtest/gtest.h>
 
 #include "ao_eval.h"
-#include "app/cli_util.h"
-#include "capture/synth_scene.h"
 #include "io/ply.h"
 #include "io/tum.h"
+#include "sim/synth_scene.h"
+#include "support/cli_util.h"
 #include "trajectory_eval.h"
 
 namespace aoscan::eval {

@@ -143,8 +143,8 @@ TEST(MeshEval, OffsetCopyHasThatAccuracyAndFullCompleteness) {
 }  // namespace
 }  // namespace aoscan::eval
 
-#include "ao/reference_ao.h"
 #include "ao_eval.h"
+#include "sim/reference_ao.h"
 
 namespace aoscan::eval {
 namespace {

@@ -12,9 +12,9 @@
 #include <CLI/CLI.hpp>
 
 #include "capture/source.h"
-#include "core/config.h"
 #include "core/host_cpu.h"
 #include "core/log.h"
+#include "pipeline/config.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/processing.h"
 #include "pipeline/session.h"

@@ -19,11 +19,11 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 
-#include "core/config.h"
 #include "core/status.h"
-#include "fusion/marching_cubes.h"
+#include "fusion/tsdf/marching_cubes.h"
 #include "io/ply.h"
 #include "io/vdb.h"
+#include "pipeline/config.h"
 #include "pipeline/volume_export.h"
 
 namespace aoscan {

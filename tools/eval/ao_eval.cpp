@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <optional>
 
-#include "ao/reference_ao.h"
 #include "core/status.h"
+#include "sim/reference_ao.h"
 
 namespace aoscan::eval {
 namespace {

@@ -9,10 +9,10 @@
 
 #include <Eigen/Core>
 
-#include "ao/reference_ao.h"
-#include "capture/synth_scene.h"
 #include "core/mesh.h"
 #include "core/pose.h"
+#include "sim/reference_ao.h"
+#include "sim/synth_scene.h"
 
 namespace aoscan::eval {
 

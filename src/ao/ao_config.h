@@ -1,0 +1,142 @@
+/// @file ao_config.h
+/// @brief Configuration of screen-space AO and the MVAO grid (section `ao`).
+///
+/// The struct lists its fields once in `visit()`: loading (`--config`, `--set`), validation,
+/// `aoscan config` and the README's table are all driven by that list (pipeline/config.h).
+#pragma once
+
+namespace aoscan {
+
+/// How SSAO values from several frames are merged per MVAO grid cell (contract key ao.integration).
+enum class AoIntegration { kMvao, kMean, kLast };
+/// Which depth the SSAO runs on (contract key ao.input).
+enum class AoInput { kRaycast, kRaw };
+/// Per-sample SSAO estimator (see src/ao/ssao.h): paper 000 Eq. 3-5 as printed; obscurance form
+/// (only samples above the tangent plane occlude, weighted by elevation and 1 - rho); Alchemy
+/// (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice integral with rho);
+/// heightfield (Eq. 1 integrated exactly on each slice's height profile up to t_max).
+enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon, kHeightfield };
+
+/// Screen-space AO and the multi-view AO grid (paper 000 Sec. 4 and 6).
+struct AoConfig {
+  double radius_m = 0.1;  ///< r_s: radius of the sampling sphere (m)
+  double t_max_m = 0.2;   ///< t_max: falloff distance of rho (m)
+  /// N: samples per pixel. 16 (not the paper's 32): with stride 2 and MVAO the accumulated AO
+  /// correlates equally with the ray-traced reference (exact corner, Pearson r 0.920 vs 0.921; 8
+  /// gives 0.921, but a single frame's r drops 0.911 -> 0.908 -> 0.905; noisy corner through the
+  /// whole pipeline 0.861 vs 0.862), at half the SSAO cost.
+  int samples = 16;
+  double d_min_m = 0.4;        ///< w_d: minimum normalisation depth (m)
+  double d_max_m = 3.0;        ///< w_d: maximum normalisation depth (m)
+  int grid_resolution = 512;   ///< MVAO grid cells per axis over grid_extent_m
+  double grid_extent_m = 4.0;  ///< MVAO grid: cell size = grid_extent_m / grid_resolution
+  AoIntegration integration = AoIntegration::kMvao;
+  AoInput input = AoInput::kRaycast;
+  /// SSAO estimator; alchemy correlates best with the ray-traced Eq. 1 reference (tests/ao/
+  /// ao_accuracy_test.cpp).
+  AoEstimator estimator = AoEstimator::kAlchemy;
+  /// SSAO pixel stride: 1 evaluates every pixel; 2 evaluates one pixel per 2x2 block per frame
+  /// (the block's pixel rotates with the frame index) and copies it to the block's other pixels
+  /// with weight 0, so the MVAO grid only integrates evaluated pixels.
+  int ssao_stride_px = 2;
+  /// Alchemy, obscurance and heightfield estimators: a sample occludes only by its height above the
+  /// tangent plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth
+  /// like their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
+  /// 0.0035: with the whole normal map smoothed (normal_radius_px), the tangent planes are flat
+  /// enough for a lower bias than the 0.005 of raw normals: noisy corner r +0.003 to +0.004 (3
+  /// seeds), room +0.000, exact-depth corner +0.005 (0.0025: room -0.002; 0.0065: all lower); see
+  /// BENCHMARKS.md.
+  double bias = 0.0035;
+  /// Coverage weight (in the spirit of the paper's border weight w_b, Eq. 12): in mvao mode a
+  /// pixel's weight w_d * w_n is multiplied by coverage^coverage_power, coverage = the share of
+  /// its SSAO samples that fell inside the image on valid pixels (samples off the image or in
+  /// holes count as open, so such a pixel's AO is too light). 0 = off. 4: noisy corner through the
+  /// pipeline r 0.862 -> 0.865 (1: 0.864); see BENCHMARKS.md.
+  double coverage_power = 4.0;
+  /// The mesh export reads the grid through cells of mesh_cell_factor^3 grid cells (their sums
+  /// added, i.e. the AO averaged over mesh_cell_factor * cell size) with trilinear interpolation
+  /// between those; the live view keeps the grid's own cells. 1 = the grid's cells. 4 (3.1 cm
+  /// with the default grid, a third of r_s): noisy corner r 0.865 -> 0.890 (3: 0.886), the fused
+  /// surface's small bumps average out; see BENCHMARKS.md.
+  int mesh_cell_factor = 4;
+  /// SSAO takes at each evaluated pixel the normalised sum of the raycast normals within
+  /// normal_radius_px pixels whose vertices lie within normal_max_distance_m of the pixel's own
+  /// (the same surface, not the one behind a depth jump); 0 = the raycast's own normal. The
+  /// raycast normal is the TSDF gradient at the nearest voxel, whose few-degree noise on a fused
+  /// noisy surface tilts the tangent plane, so that samples a few centimetres away rise above or
+  /// sink below it by more than the bias. 2 px within 4 cm: noisy room r 0.790 -> 0.922, noisy
+  /// corner +0.009 to +0.011 (3 seeds); see BENCHMARKS.md. The whole normal map is smoothed
+  /// once per frame (smooth_model_normals()), so the samples' area factor (area_min_cos) reads
+  /// the smoothed normals too: noisy corner +0.001 (3 seeds), room +0.005, exact corner +0.002.
+  int normal_radius_px = 2;
+  double normal_max_distance_m = 0.04;
+  /// Alchemy: each sample's term is divided by max(cos theta_q, area_min_cos), theta_q the angle
+  /// between the sample's SSAO normal (smoothed as above) and its ray to the camera. A screen-space
+  /// sample stands for the surface area its pixel covers, which grows as 1 / cos theta_q, so an
+  /// occluder seen at a grazing angle (a few pixels wide) would otherwise count far less than the
+  /// same occluder seen face-on; the floor keeps single grazing pixels from dominating. 1 = off
+  /// (McGuire et al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r
+  /// +0.002 to +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
+  double area_min_cos = 0.5;
+  /// Live only (a camera or `--realtime`): while frames are dropped in front of tracking, SSAO runs
+  /// on every 3rd, 5th, ... tracked frame, up to this interval (odd; 1 = every frame always); see
+  /// pipeline/ao_load_shedder.h. 3: RedKitchen paced at 30 Hz on 2 cores (`--realtime`), frames
+  /// dropped in front of tracking 18 / 20 against 20 / 37 with 1 (two alternating pairs); see
+  /// BENCHMARKS.md.
+  int live_max_interval = 3;
+
+  template <class V>
+  void visit(V& v) {
+    v.number("radius_m", radius_m, "SSAO sampling sphere radius r_s (m)", 1e-3, 10.0);
+    v.number("t_max_m", t_max_m, "SSAO distance falloff t_max (m)", 1e-3, 10.0);
+    v.integer("samples", samples, "SSAO samples per pixel N", 1, 1024);
+    v.number("d_min_m", d_min_m, "view weight w_d: minimum normalisation depth (m)", 0.0, 100.0);
+    v.number("d_max_m", d_max_m, "view weight w_d: maximum normalisation depth (m)", 1e-3, 100.0);
+    v.integer("grid_resolution", grid_resolution, "MVAO grid cells per grid_extent_m", 1, 1 << 20);
+    v.number("grid_extent_m", grid_extent_m,
+             "MVAO grid: length covered by grid_resolution cells (m)", 1e-3, 1e4);
+    v.choice("integration", integration, "merge of SSAO over frames: mvao (w_d*w_n), mean, last",
+             {{"mvao", AoIntegration::kMvao},
+              {"mean", AoIntegration::kMean},
+              {"last", AoIntegration::kLast}});
+    v.choice("input", input, "SSAO input: raycast of the model or raw filtered depth",
+             {{"raycast", AoInput::kRaycast}, {"raw", AoInput::kRaw}});
+    v.choice("estimator", estimator,
+             "SSAO estimator: paper (Eq. 3-5 as printed), obscurance, alchemy, horizon, "
+             "heightfield",
+             {{"paper", AoEstimator::kPaper},
+              {"obscurance", AoEstimator::kObscurance},
+              {"alchemy", AoEstimator::kAlchemy},
+              {"horizon", AoEstimator::kHorizon},
+              {"heightfield", AoEstimator::kHeightfield}});
+    v.number("bias", bias,
+             "SSAO alchemy/obscurance/heightfield: a sample occludes only above the tangent plane "
+             "by more than bias * depth (m per m of depth)",
+             0.0, 1.0);
+    v.number("coverage_power", coverage_power,
+             "mvao weight *= (share of SSAO samples inside the image on valid pixels)^power; "
+             "0 = off",
+             0.0, 16.0);
+    v.integer("mesh_cell_factor", mesh_cell_factor,
+              "mesh AO reads the grid through cells of factor^3 grid cells (1 = the grid's cells)",
+              1, 64);
+    v.integer("normal_radius_px", normal_radius_px,
+              "SSAO normal (evaluated pixels and samples): sum of the raycast normals within this "
+              "many pixels (0 = the pixel's own)",
+              0, 16);
+    v.number("normal_max_distance_m", normal_max_distance_m,
+             "SSAO normal: only neighbours whose vertices lie within this distance (m)", 0.0, 10.0);
+    v.number("area_min_cos", area_min_cos,
+             "SSAO alchemy: a sample's term / max(cos of its surface to its camera ray, this); "
+             "1 = off",
+             0.01, 1.0);
+    v.integer("ssao_stride_px", ssao_stride_px,
+              "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
+    v.integer("live_max_interval", live_max_interval,
+              "live: while frames are dropped in front of tracking, SSAO runs on every 3rd, "
+              "5th, ... tracked frame up to this (1 = every frame)",
+              1, 15);
+  }
+};
+
+}  // namespace aoscan

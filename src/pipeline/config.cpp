@@ -1,0 +1,256 @@
+/// @file config.cpp
+/// @brief Loading, validating and printing the configuration through the structs' visit() lists.
+#include "pipeline/config.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <initializer_list>
+#include <map>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "core/status.h"
+
+namespace aoscan {
+namespace {
+
+bool parse_double(const std::string& text, double& out) {
+  if (text.empty()) return false;
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (errno != 0 || end != text.c_str() + text.size() || !std::isfinite(v)) return false;
+  out = v;
+  return true;
+}
+
+bool parse_int(const std::string& text, int& out) {
+  if (text.empty()) return false;
+  errno = 0;
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (errno != 0 || end != text.c_str() + text.size() || v < -(1L << 31) || v >= (1L << 31))
+    return false;
+  out = static_cast<int>(v);
+  return true;
+}
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+/// Sets the field named `field` of the visited section, if it has one.
+class SetVisitor {
+ public:
+  SetVisitor(std::string key, std::string field, std::string value, std::string origin)
+      : key_(std::move(key)), field_(std::move(field)), value_(std::move(value)),
+        origin_(std::move(origin)) {}
+
+  void number(const char* name, double& target, const char*, double lo, double hi) {
+    if (field_ != name) return;
+    found = true;
+    double v = 0;
+    if (!parse_double(value_, v)) fail("is not a finite number");
+    if (v < lo || v > hi) fail("is out of range [" + number_text(lo) + ", " + number_text(hi) + "]");
+    target = v;
+  }
+  void integer(const char* name, int& target, const char*, int lo, int hi) {
+    if (field_ != name) return;
+    found = true;
+    int v = 0;
+    if (!parse_int(value_, v)) fail("is not an integer");
+    if (v < lo || v > hi)
+      fail("is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    target = v;
+  }
+  template <class E>
+  void choice(const char* name, E& target, const char*,
+              std::initializer_list<std::pair<const char*, E>> options) {
+    if (field_ != name) return;
+    found = true;
+    std::string names;
+    for (const auto& [text, value] : options) {
+      if (value_ == text) {
+        target = value;
+        return;
+      }
+      names += names.empty() ? text : std::string(", ") + text;
+    }
+    fail("is not one of: " + names);
+  }
+
+  bool found = false;
+
+ private:
+  [[noreturn]] void fail(const std::string& why) const {
+    throw usage_error(origin_ + ": value '" + value_ + "' of " + key_ + " " + why);
+  }
+  std::string key_, field_, value_, origin_;
+};
+
+/// Writes `key: value  # doc` lines.
+class DumpVisitor {
+ public:
+  explicit DumpVisitor(std::ostringstream& out) : out_(out) {}
+  void number(const char* name, double& v, const char* doc, double, double) {
+    line(name, number_text(v), doc);
+  }
+  void integer(const char* name, int& v, const char* doc, int, int) {
+    line(name, std::to_string(v), doc);
+  }
+  template <class E>
+  void choice(const char* name, E& v, const char* doc,
+              std::initializer_list<std::pair<const char*, E>> options) {
+    for (const auto& [text, value] : options)
+      if (value == v) line(name, text, doc);
+  }
+
+ private:
+  void line(const char* name, const std::string& value, const char* doc) {
+    out_ << "  " << name << ": " << value << "  # " << doc << "\n";
+  }
+  std::ostringstream& out_;
+};
+
+/// Runs the setter on the section named `wanted`.
+struct SectionDispatch {
+  const std::string& wanted;
+  SetVisitor& setter;
+  bool& section_found;
+  template <class S>
+  void section(const char* name, S& s) {
+    if (wanted != name) return;
+    section_found = true;
+    s.visit(setter);
+  }
+};
+
+/// Prints every section.
+struct SectionDump {
+  std::ostringstream& out;
+  template <class S>
+  void section(const char* name, S& s) {
+    out << name << ":\n";
+    DumpVisitor dump(out);
+    s.visit(dump);
+  }
+};
+
+/// Flattens a YAML tree into dotted keys.
+void flatten_yaml(const YAML::Node& node, const std::string& prefix,
+                  std::map<std::string, std::string>& out, const std::string& path) {
+  if (node.IsMap()) {
+    for (const auto& kv : node) {
+      const std::string key = kv.first.as<std::string>();
+      flatten_yaml(kv.second, prefix.empty() ? key : prefix + "." + key, out, path);
+    }
+  } else if (node.IsScalar()) {
+    out[prefix] = node.Scalar();
+  } else if (node.IsNull()) {
+    if (!prefix.empty()) throw usage_error(path + ": configuration key " + prefix + " has no value");
+  } else {
+    throw usage_error(path + ": configuration key " + prefix + " must be a number or a word");
+  }
+}
+
+void flatten_json(const nlohmann::json& node, const std::string& prefix,
+                  std::map<std::string, std::string>& out, const std::string& path) {
+  if (node.is_object()) {
+    for (const auto& [key, value] : node.items())
+      flatten_json(value, prefix.empty() ? key : prefix + "." + key, out, path);
+  } else if (node.is_string()) {
+    out[prefix] = node.get<std::string>();
+  } else if (node.is_number() || node.is_boolean()) {
+    out[prefix] = node.dump();
+  } else {
+    throw usage_error(path + ": configuration key " + prefix + " must be a number or a string");
+  }
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+void set_config_value(Config& config, const std::string& key, const std::string& value,
+                      const std::string& origin) {
+  const auto dot = key.find('.');
+  const std::string section = dot == std::string::npos ? "" : key.substr(0, dot);
+  const std::string field = dot == std::string::npos ? key : key.substr(dot + 1);
+  SetVisitor setter(key, field, value, origin);
+  bool section_found = false;
+  SectionDispatch dispatch{section, setter, section_found};
+  config.visit_sections(dispatch);
+  if (!section_found || !setter.found)
+    throw usage_error(origin + ": unknown configuration key '" + key +
+                      "' (aoscan config lists every key)");
+}
+
+void load_config_file(Config& config, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw usage_error(path + ": cannot open configuration file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::map<std::string, std::string> values;
+  if (ends_with(path, ".json")) {
+    nlohmann::json doc;
+    try {
+      doc = nlohmann::json::parse(buffer.str());
+    } catch (const nlohmann::json::exception& e) {
+      throw usage_error(path + ": not valid JSON: " + e.what());
+    }
+    if (!doc.is_object()) throw usage_error(path + ": configuration must be a JSON object");
+    flatten_json(doc, "", values, path);
+  } else {
+    YAML::Node doc;
+    try {
+      doc = YAML::Load(buffer.str());
+    } catch (const YAML::Exception& e) {
+      throw usage_error(path + ": not valid YAML: " + e.what());
+    }
+    if (!doc.IsMap() && !doc.IsNull())
+      throw usage_error(path + ": configuration must be a mapping of keys to values");
+    flatten_yaml(doc, "", values, path);
+  }
+  for (const auto& [key, value] : values) set_config_value(config, key, value, path);
+}
+
+void validate_config(const Config& c) {
+  if (c.preprocess.min_depth_m >= c.preprocess.max_depth_m)
+    throw usage_error("configuration: preprocess.min_depth_m must be below preprocess.max_depth_m");
+  if (c.ao.d_min_m >= c.ao.d_max_m)
+    throw usage_error("configuration: ao.d_min_m must be below ao.d_max_m");
+  if (c.fusion.truncation_m < c.fusion.voxel_size_m)
+    throw usage_error("configuration: fusion.truncation_m must be at least fusion.voxel_size_m");
+}
+
+Config load_config(const std::string& file, const std::vector<std::string>& sets) {
+  Config config;
+  if (!file.empty()) load_config_file(config, file);
+  for (const std::string& kv : sets) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw usage_error("--set " + kv + ": expected KEY=VALUE");
+    set_config_value(config, kv.substr(0, eq), kv.substr(eq + 1), "--set");
+  }
+  validate_config(config);
+  return config;
+}
+
+std::string dump_config(const Config& config) {
+  Config copy = config;
+  std::ostringstream out;
+  SectionDump dispatch{out};
+  copy.visit_sections(dispatch);
+  return out.str();
+}
+
+}  // namespace aoscan
