@@ -149,18 +149,14 @@ class FreenectSource : public Source {
     }
     target_ = nullptr;
     if (!delivered_) return Status::device_lost(lost_);
-    frame.depth_scale = 1000.0;
-    frame.intrinsics = intrinsics_;
-    frame.timestamp_s = static_cast<double>(ticks_) / kKinectClockHz;
-    frame.sequence = sequence_++;
-    frame.origin = name_;
-    frame.T_world_camera_gt.reset();
+    stamp_live_frame(frame, intrinsics_, static_cast<double>(ticks_) / kKinectClockHz, sequence_++,
+                     name_);
     return Status::ok();
   }
 
   std::string name() const override { return name_; }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
-  double depth_scale() const override { return 1000.0; }
+  double depth_scale() const override { return kMillimetreDepthScale; }
   bool live() const override { return true; }
 
  private:

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -37,6 +38,23 @@ class Source {
   /// Exact scene geometry in the world frame of the ground-truth poses, when the source knows it.
   virtual const TriangleMesh* scene_mesh() const { return nullptr; }
 };
+
+/// Raw units per metre of the live cameras that deliver millimetres (libfreenect in mm mode, V4L2
+/// Z16).
+inline constexpr double kMillimetreDepthScale = 1000.0;
+
+/// Stamps a frame of a live millimetre camera: depth_scale kMillimetreDepthScale, the camera's
+/// intrinsics, the driver's timestamp and sequence number, origin = the camera's name and no
+/// ground truth. The depth (and arrived_at) are the caller's.
+inline void stamp_live_frame(DepthFrame& frame, const Intrinsics& intrinsics, double timestamp_s,
+                             std::uint64_t sequence, const std::string& origin) {
+  frame.depth_scale = kMillimetreDepthScale;
+  frame.intrinsics = intrinsics;
+  frame.timestamp_s = timestamp_s;
+  frame.sequence = sequence;
+  frame.origin = origin;
+  frame.T_world_camera_gt.reset();
+}
 
 /// Opens SOURCE as the contract spells it: a TUM-layout folder, `synth:NAME?k=v&...`,
 /// `FILE.oni` and live camera URIs. Throws Error: usage_error for an unknown synth scene or

@@ -203,20 +203,17 @@ class V4l2Source : public Source {
     if (buf.index < buffers_.size() && xioctl(fd, VIDIOC_QBUF, &buf) < 0)
       return lose(name_ + ": VIDIOC_QBUF failed (unplugged?): " + errno_text());
     if (!status.is_ok()) return status;
-    frame.depth_scale = 1000.0;
-    frame.intrinsics = intrinsics_;
-    frame.timestamp_s = static_cast<double>(buf.timestamp.tv_sec) +
-                        static_cast<double>(buf.timestamp.tv_usec) * 1e-6;
-    frame.sequence = buf.sequence;
+    stamp_live_frame(frame, intrinsics_,
+                     static_cast<double>(buf.timestamp.tv_sec) +
+                         static_cast<double>(buf.timestamp.tv_usec) * 1e-6,
+                     buf.sequence, name_);
     frame.arrived_at = woke;
-    frame.origin = name_;
-    frame.T_world_camera_gt.reset();
     return Status::ok();
   }
 
   std::string name() const override { return name_; }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
-  double depth_scale() const override { return 1000.0; }
+  double depth_scale() const override { return kMillimetreDepthScale; }
   bool live() const override { return true; }
 
  private:
