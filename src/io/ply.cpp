@@ -254,15 +254,17 @@ void write_ply(const std::string& path, const TriangleMesh& mesh) {
   if (std::fclose(file) != 0 || !ok) write_failed(path);
 }
 
-TriangleMesh read_ply(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw input_error(path + ": cannot open PLY file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw input_error(path + ": cannot read PLY file");
-  const std::string text = buffer.str();
+namespace {
 
-  // Header: lines up to and including "end_header".
+/// The header of a PLY file: its format, its elements, and where the data begin.
+struct PlyHeader {
+  bool ascii = false;
+  std::vector<Element> elements;
+  std::size_t data_offset = 0;  ///< first byte after the end_header line
+};
+
+/// Parses the header lines of `text` (the whole file) up to and including "end_header".
+PlyHeader parse_header(const std::string& path, const std::string& text) {
   std::size_t pos = 0;
   auto next_line = [&](std::string_view& line) {
     if (pos >= text.size()) return false;
@@ -275,8 +277,8 @@ TriangleMesh read_ply(const std::string& path) {
   };
   std::string_view line;
   if (!next_line(line) || line != "ply") throw input_error(path + ": not a PLY file");
-  bool ascii = false, have_format = false, ended = false;
-  std::vector<Element> elements;
+  PlyHeader header;
+  bool have_format = false, ended = false;
   while (next_line(line)) {
     const auto tokens = split_tokens(line);
     if (tokens.empty() || tokens[0] == "comment" || tokens[0] == "obj_info") continue;
@@ -288,7 +290,7 @@ TriangleMesh read_ply(const std::string& path) {
     } else if (tokens[0] == "format") {
       if (tokens.size() != 3) throw input_error(bad);
       if (tokens[1] == "ascii") {
-        ascii = true;
+        header.ascii = true;
       } else if (tokens[1] != "binary_little_endian") {
         throw input_error(path + ": unsupported PLY format '" + std::string(tokens[1]) + "'");
       }
@@ -301,9 +303,9 @@ TriangleMesh read_ply(const std::string& path) {
           std::from_chars(tokens[2].data(), tokens[2].data() + tokens[2].size(), e.count);
       if (r.ec != std::errc() || r.ptr != tokens[2].data() + tokens[2].size())
         throw input_error(bad);
-      elements.push_back(std::move(e));
+      header.elements.push_back(std::move(e));
     } else if (tokens[0] == "property") {
-      if (elements.empty()) throw input_error(bad);
+      if (header.elements.empty()) throw input_error(bad);
       Property p;
       if (tokens.size() == 3 && parse_type(tokens[1], p.type)) {
         p.name = std::string(tokens[2]);
@@ -314,98 +316,125 @@ TriangleMesh read_ply(const std::string& path) {
       } else {
         throw input_error(bad);
       }
-      elements.back().properties.push_back(std::move(p));
+      header.elements.back().properties.push_back(std::move(p));
     } else {
       throw input_error(bad);
     }
   }
   if (!ended) throw input_error(path + ": PLY header has no end_header");
   if (!have_format) throw input_error(path + ": PLY header has no format line");
+  header.data_offset = pos;
+  return header;
+}
 
-  DataReader reader(path, std::string_view(text).substr(pos), ascii);
+/// Column roles of the vertex element `e`: 0-2 position, 3-5 normal (only when all three are
+/// there), 6 quality, -1 ignored. Sizes the mesh's vertex arrays for the columns it has.
+std::vector<int> vertex_roles(const std::string& path, const Element& e, TriangleMesh& mesh) {
+  std::vector<int> role(e.properties.size(), -1);
+  static const char* kNames[] = {"x", "y", "z", "nx", "ny", "nz", "quality"};
+  bool found[7] = {};
+  for (std::size_t i = 0; i < e.properties.size(); ++i)
+    for (int r = 0; r < 7; ++r)
+      if (e.properties[i].name == kNames[r] && !e.properties[i].is_list) {
+        role[i] = r;
+        found[r] = true;
+      }
+  if (!found[0] || !found[1] || !found[2])
+    throw input_error(path + ": PLY vertex element lacks x, y or z");
+  const bool normals = found[3] && found[4] && found[5];
+  if (!normals)
+    for (int& r : role)
+      if (r >= 3 && r <= 5) r = -1;
+  mesh.vertices.resize(e.count);
+  if (normals) mesh.normals.resize(e.count);
+  if (found[6]) mesh.quality.resize(e.count);
+  return role;
+}
+
+/// Reads the instances of element `e` from `reader`: vertex columns with a role (vertex_roles())
+/// and the polygons of the face list column `face_list` (fanned into triangles) go into `mesh`;
+/// everything else is read and dropped. `have_vertices`: a vertex element came before.
+void read_element(const std::string& path, const Element& e, const std::vector<int>& role,
+                  int face_list, bool have_vertices, DataReader& reader, TriangleMesh& mesh) {
+  const bool is_vertex = e.name == "vertex";
+  const char* what = e.name.c_str();
+  std::vector<int> polygon;
+  for (std::uint64_t index = 0; index < e.count; ++index) {
+    for (std::size_t i = 0; i < e.properties.size(); ++i) {
+      const Property& p = e.properties[i];
+      if (!p.is_list) {
+        const double v = reader.next(p.type, what, index);
+        if (is_vertex && role[i] >= 0) {
+          const int r = role[i];
+          const auto f = static_cast<float>(v);
+          if (r < 3) {
+            mesh.vertices[index][r] = f;
+          } else if (r < 6) {
+            mesh.normals[index][r - 3] = f;
+          } else {
+            mesh.quality[index] = f;
+          }
+        }
+        continue;
+      }
+      const double count = reader.next(p.count_type, what, index);
+      if (!(count >= 0) || count != std::floor(count))
+        throw input_error(path + ": bad list length in " + e.name + " " + std::to_string(index));
+      if (count > static_cast<double>(reader.remaining()))  // every item takes a byte at least
+        throw input_error(path + ": truncated PLY data at " + e.name + " " +
+                          std::to_string(index));
+      polygon.clear();
+      for (int k = 0; k < static_cast<int>(count); ++k) {
+        const double v = reader.next(p.type, what, index);
+        if (static_cast<int>(i) == face_list) {
+          if (!have_vertices || !(v >= 0) || v >= static_cast<double>(mesh.vertices.size()) ||
+              v != std::floor(v))
+            throw input_error(path + ": face " + std::to_string(index) +
+                              " has a vertex index out of range");
+          polygon.push_back(static_cast<int>(v));
+        }
+      }
+      if (static_cast<int>(i) == face_list) {
+        if (polygon.size() < 3)
+          throw input_error(path + ": face " + std::to_string(index) +
+                            " has fewer than 3 vertices");
+        for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
+          mesh.faces.emplace_back(polygon[0], polygon[k], polygon[k + 1]);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+TriangleMesh read_ply(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw input_error(path + ": cannot open PLY file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) throw input_error(path + ": cannot read PLY file");
+  const std::string text = buffer.str();
+  const PlyHeader header = parse_header(path, text);
+
+  DataReader reader(path, std::string_view(text).substr(header.data_offset), header.ascii);
   TriangleMesh mesh;
   bool have_vertices = false;
-  for (const Element& e : elements) {
-    if (e.count > reader.remaining() / min_instance_size(e, ascii) + 1)
+  for (const Element& e : header.elements) {
+    if (e.count > reader.remaining() / min_instance_size(e, header.ascii) + 1)
       throw input_error(path + ": truncated PLY data, too short for " + std::to_string(e.count) +
                         " " + e.name + " elements");
-    const bool is_vertex = e.name == "vertex";
-    const bool is_face = e.name == "face";
-    // Column roles of the vertex element: 0-2 position, 3-5 normal, 6 quality, -1 ignored.
     std::vector<int> role(e.properties.size(), -1);
-    int face_list = -1;
-    if (is_vertex) {
-      static const char* kNames[] = {"x", "y", "z", "nx", "ny", "nz", "quality"};
-      bool found[7] = {};
-      for (std::size_t i = 0; i < e.properties.size(); ++i)
-        for (int r = 0; r < 7; ++r)
-          if (e.properties[i].name == kNames[r] && !e.properties[i].is_list) {
-            role[i] = r;
-            found[r] = true;
-          }
-      if (!found[0] || !found[1] || !found[2])
-        throw input_error(path + ": PLY vertex element lacks x, y or z");
-      const bool normals = found[3] && found[4] && found[5];
-      if (!normals)
-        for (int& r : role)
-          if (r >= 3 && r <= 5) r = -1;
+    if (e.name == "vertex") {
+      role = vertex_roles(path, e, mesh);
       have_vertices = true;
-      mesh.vertices.resize(e.count);
-      if (normals) mesh.normals.resize(e.count);
-      if (found[6]) mesh.quality.resize(e.count);
     }
-    if (is_face)
+    int face_list = -1;
+    if (e.name == "face")
       for (std::size_t i = 0; i < e.properties.size(); ++i)
         if (e.properties[i].is_list &&
             (e.properties[i].name == "vertex_indices" || e.properties[i].name == "vertex_index"))
           face_list = static_cast<int>(i);
-
-    const char* what = e.name.c_str();
-    std::vector<int> polygon;
-    for (std::uint64_t index = 0; index < e.count; ++index) {
-      for (std::size_t i = 0; i < e.properties.size(); ++i) {
-        const Property& p = e.properties[i];
-        if (!p.is_list) {
-          const double v = reader.next(p.type, what, index);
-          if (is_vertex && role[i] >= 0) {
-            const int r = role[i];
-            const auto f = static_cast<float>(v);
-            if (r < 3) {
-              mesh.vertices[index][r] = f;
-            } else if (r < 6) {
-              mesh.normals[index][r - 3] = f;
-            } else {
-              mesh.quality[index] = f;
-            }
-          }
-          continue;
-        }
-        const double count = reader.next(p.count_type, what, index);
-        if (!(count >= 0) || count != std::floor(count))
-          throw input_error(path + ": bad list length in " + e.name + " " + std::to_string(index));
-        if (count > static_cast<double>(reader.remaining()))  // every item takes a byte at least
-          throw input_error(path + ": truncated PLY data at " + e.name + " " +
-                            std::to_string(index));
-        polygon.clear();
-        for (int k = 0; k < static_cast<int>(count); ++k) {
-          const double v = reader.next(p.type, what, index);
-          if (static_cast<int>(i) == face_list) {
-            if (!have_vertices || !(v >= 0) || v >= static_cast<double>(mesh.vertices.size()) ||
-                v != std::floor(v))
-              throw input_error(path + ": face " + std::to_string(index) +
-                                " has a vertex index out of range");
-            polygon.push_back(static_cast<int>(v));
-          }
-        }
-        if (static_cast<int>(i) == face_list) {
-          if (polygon.size() < 3)
-            throw input_error(path + ": face " + std::to_string(index) +
-                              " has fewer than 3 vertices");
-          for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
-            mesh.faces.emplace_back(polygon[0], polygon[k], polygon[k + 1]);
-        }
-      }
-    }
+    read_element(path, e, role, face_list, have_vertices, reader, mesh);
   }
   return mesh;
 }
