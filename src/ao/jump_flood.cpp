@@ -1,0 +1,147 @@
+/// @file jump_flood.cpp
+/// @brief Jump flooding distance fields and the border distance of range maps.
+#include "ao/jump_flood.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace aoscan {
+namespace {
+
+/// The nearest seed found so far for a pixel, as seed coordinates; x < 0 when none.
+struct SeedRef {
+  std::int32_t x = -1;
+  std::int32_t y = -1;
+};
+
+/// Squared distance from (x, y) to seed s, the x difference taken around the cylinder when
+/// `width` > 0.
+inline std::int64_t distance_sq(int x, int y, const SeedRef& s, int wrap_width) {
+  std::int64_t dx = std::abs(x - s.x);
+  if (wrap_width > 0) dx = std::min<std::int64_t>(dx, wrap_width - dx);
+  const std::int64_t dy = y - s.y;
+  return dx * dx + dy * dy;
+}
+
+/// One jump flooding pass of step k from `in` to `out`.
+void flood_pass(const Image<SeedRef>& in, int k, bool wrap_x, Image<SeedRef>& out) {
+  const int w = in.width(), h = in.height();
+  const int wrap_width = wrap_x ? w : 0;
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        SeedRef best = in(x, y);
+        std::int64_t best_d = best.x >= 0 ? distance_sq(x, y, best, wrap_width)
+                                          : std::numeric_limits<std::int64_t>::max();
+        for (int dy = -k; dy <= k; dy += k)
+          for (int dx = -k; dx <= k; dx += k) {
+            if (dx == 0 && dy == 0) continue;
+            int nx = x + dx;
+            const int ny = y + dy;
+            if (ny < 0 || ny >= h) continue;
+            if (wrap_x) {
+              nx = ((nx % w) + w) % w;
+            } else if (nx < 0 || nx >= w) {
+              continue;
+            }
+            const SeedRef& s = in(nx, ny);
+            if (s.x < 0) continue;
+            const std::int64_t d = distance_sq(x, y, s, wrap_width);
+            // Ties go to the smaller (y, x) seed, so the result is the same in any visiting order.
+            if (d < best_d || (d == best_d && (s.y < best.y || (s.y == best.y && s.x < best.x)))) {
+              best = s;
+              best_d = d;
+            }
+          }
+        out(x, y) = best;
+      }
+  });
+}
+
+}  // namespace
+
+void jump_flood_distance(const Image<std::uint8_t>& seeds, bool wrap_x,
+                         Image<float>& distance_px) {
+  const int w = seeds.width(), h = seeds.height();
+  Image<SeedRef> a(w, h, SeedRef{}), b(w, h, SeedRef{});
+  bool any = false;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (seeds(x, y) != 0) {
+        a(x, y) = SeedRef{x, y};
+        any = true;
+      }
+  distance_px.resize(w, h, 0.0f);
+  if (!any) {
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) distance_px(x, y) = std::numeric_limits<float>::infinity();
+    return;
+  }
+  int step = 1;
+  while (step * 2 < std::max(w, h)) step *= 2;
+  for (; step >= 1; step /= 2) {
+    flood_pass(a, step, wrap_x, b);
+    std::swap(a, b);
+  }
+  flood_pass(a, 1, wrap_x, b);  // JFA+1
+  const int wrap_width = wrap_x ? w : 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      distance_px(x, y) =
+          static_cast<float>(std::sqrt(static_cast<double>(distance_sq(x, y, b(x, y), wrap_width))));
+}
+
+BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<float>& distance_px) {
+  const int w = map.points.width(), h = map.points.height();
+  const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  Image<float> depth(w, h, 0.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      depth(x, y) = map.has_point(x, y) ? map.camera.depth(map.points(x, y)) : 0.0f;
+  auto at = [&](int x, int y) {
+    if (wrap) x = ((x % w) + w) % w;
+    return x < 0 || y < 0 || x >= w || y >= h ? 0.0f : depth(x, y);
+  };
+  Image<float> laplacian(w, h, 0.0f);
+  std::vector<float> values;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (!(depth(x, y) > 0.0f)) continue;
+      const float l =
+          std::abs(4.0f * depth(x, y) - at(x - 1, y) - at(x + 1, y) - at(x, y - 1) - at(x, y + 1));
+      laplacian(x, y) = l;
+      values.push_back(l);
+    }
+  BorderStats stats;
+  distance_px.resize(w, h, 0.0f);
+  if (values.empty()) {
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) distance_px(x, y) = 0.0f;
+    return stats;
+  }
+  // The 0.95 percentile by nearest rank: the value with 95 % of the values at or below it.
+  const std::size_t rank = static_cast<std::size_t>(std::ceil(0.95 * values.size())) - 1;
+  std::nth_element(values.begin(), values.begin() + rank, values.end());
+  stats.threshold = values[rank];
+  Image<std::uint8_t> seeds(w, h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float d = depth(x, y);
+      if (d > 0.0f && laplacian(x, y) >= stats.threshold && laplacian(x, y) > min_edge_ratio * d) {
+        seeds(x, y) = 1;
+        ++stats.edges;
+      }
+    }
+  jump_flood_distance(seeds, wrap, distance_px);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (!(depth(x, y) > 0.0f)) distance_px(x, y) = 0.0f;
+  return stats;
+}
+
+}  // namespace aoscan

@@ -1,0 +1,39 @@
+/// @file jump_flood.h
+/// @brief Distance fields on images by jump flooding (Rong & Tan 2006), and the border distance
+/// d_b of a range map (Sabbadin et al. 2016 Eq. 12: Laplacian edges, the 0.95 percentile of their
+/// histogram, the distance in pixels to the nearest of them).
+#pragma once
+
+#include <cstdint>
+
+#include "ao/range_map.h"
+#include "core/image.h"
+
+namespace aoscan {
+
+/// Distance in pixels from every pixel to the nearest seed (`seeds` non-zero), by jump flooding
+/// with steps width/2, width/4, ..., 1 and one more pass of step 1 (the "JFA+1" variant, which
+/// removes most of plain JFA's rare errors). With `wrap_x` the image is a cylinder (an
+/// equirectangular map: column width - 1 neighbours column 0). +infinity everywhere when there is
+/// no seed. Rows run in parallel; the result does not depend on the thread count. Jump flooding is
+/// approximate: a pixel may get a seed that is slightly farther than the nearest one (exact for
+/// any single seed and for seeds on one line; tests state the tolerance against the exact
+/// field).
+void jump_flood_distance(const Image<std::uint8_t>& seeds, bool wrap_x, Image<float>& distance_px);
+
+/// What border_distance() found.
+struct BorderStats {
+  float threshold = 0.0f;  ///< the Laplacian threshold used (after the floor)
+  long long edges = 0;     ///< edge pixels (seeds of the distance field)
+};
+
+/// d_b of Eq. 12 for every pixel of `map`: the Laplacian |4 D(x, y) - sum of the 4 neighbours| of
+/// the map's depth D (a pixel without a point, or outside the map, reads 0, so holes and the map's
+/// edge are borders; an equirectangular map wraps in azimuth); edges are the pixels with a point
+/// whose Laplacian reaches the 0.95 percentile of the Laplacian over the pixels with a point
+/// (nearest rank) and exceeds min_edge_ratio times their own depth (the floor keeps the noise of a smooth surface from
+/// being taken as its "most valuable borders" when the scan has no real discontinuity); then the
+/// jump-flooding distance to the nearest edge, in pixels. Pixels without a point get 0.
+BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<float>& distance_px);
+
+}  // namespace aoscan

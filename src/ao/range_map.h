@@ -1,0 +1,62 @@
+/// @file range_map.h
+/// @brief One registered scan as a range map (Sabbadin et al. 2016 Sec. 5 and 7): per pixel the
+/// scanner-frame position and normal of the point seen there, the scan's camera and its pose.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ao/scan_camera.h"
+#include "core/image.h"
+#include "core/pose.h"
+
+namespace aoscan {
+
+/// A scan's G-buffer. A pixel without a point has a zero position and a zero normal.
+struct RangeMap {
+  std::string name;        ///< for messages and output file names
+  ScanCamera camera;       ///< how pixels map to directions from the scanner
+  Pose T_world_scanner;    ///< scanner frame to world (the registration); the scanner sits at 0
+  Image<Eigen::Vector3f> points;   ///< scanner frame (metres)
+  Image<Eigen::Vector3f> normals;  ///< scanner frame, unit, facing the scanner (n . p < 0)
+
+  /// True when the pixel has a point (a non-zero, finite position).
+  bool has_point(int x, int y) const {
+    const Eigen::Vector3f& p = points(x, y);
+    return p.allFinite() && !(p.x() == 0.0f && p.y() == 0.0f && p.z() == 0.0f);
+  }
+  /// Pixels with a point.
+  long long count_points() const;
+};
+
+/// Makes `map` a pinhole range map of a metric depth image (metres along z, 0 = invalid) seen
+/// with `intrinsics`: every valid pixel's camera-frame point, normals zero (see
+/// compute_range_map_normals()). Throws input_error when the sizes differ.
+void range_map_from_depth(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                          RangeMap& map);
+
+/// Rasterises a point cloud given in the scanner frame into `map` (whose camera must be set and
+/// valid): each point goes to the pixel it projects to, and where several land in one pixel the
+/// nearest one (smallest depth) stays, ties to the first. `normals` (same length, scanner frame)
+/// may be empty: then the map's normals are zero. Points that are not finite, sit at the scanner
+/// or fall outside the map are skipped; returns how many.
+long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
+                           const std::vector<Eigen::Vector3f>& normals, RangeMap& map);
+
+/// Normals of the pixels whose normal is zero, from the map's grid: n = normalise((p_right - p)
+/// x (p_down - p)) with the left / up neighbour standing in for a missing right / down one (the
+/// equirectangular map wraps around in azimuth), oriented toward the scanner. No normal where
+/// the pixel has no point, where both neighbours on an axis are missing, or where a neighbour's
+/// depth differs from the pixel's by more than max_jump_ratio times the pixel's depth (a depth
+/// discontinuity).
+void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f);
+
+/// The radius of the surface patch one pixel of `camera` covers at `depth_m` (metres): the
+/// footprint depth / pixels_per_metre_at_1m(). The rad(p) of Eq. 12's alpha = rad(p_i) / rad(p_ij)
+/// for range maps, whose point spacing is set by the pixel grid (the paper estimates it from the
+/// 32 nearest points of an unstructured cloud).
+float point_radius(const ScanCamera& camera, float depth_m);
+
+}  // namespace aoscan

@@ -1,0 +1,61 @@
+/// @file scan_camera.h
+/// @brief The camera model of one scan's range map (Sabbadin et al. 2016 Sec. 4-5): a pinhole
+/// camera (a depth image) or an equirectangular map (a 360-degree laser scan, Sec. 7), with the
+/// projection of scanner-frame points into the map and the pixel footprint that sizes SSAO disks
+/// and point radii.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/intrinsics.h"
+
+namespace aoscan {
+
+/// How a scan's pixels map to directions from the scanner.
+enum class ScanProjection {
+  /// A depth camera: Intrinsics (x right, y down, z forward); a point's depth is its z.
+  kPinhole,
+  /// A laser scanner's sphere of directions, z up: u = (phi + pi) / (2 pi) width with the azimuth
+  /// phi = atan2(y, x), v = theta / pi height with the polar angle theta from the zenith (v = 0
+  /// straight up). Pixel (x, y) covers [x, x + 1) x [y, y + 1). A point's depth is its distance
+  /// from the scanner.
+  kEquirectangular,
+};
+
+/// One scan's camera: its projection and map size (pixels).
+struct ScanCamera {
+  ScanProjection projection = ScanProjection::kPinhole;
+  int width = 0;
+  int height = 0;
+  Intrinsics pinhole;  ///< kPinhole only; width and height equal the map's
+
+  /// A pinhole camera of `intrinsics`' size.
+  static ScanCamera make_pinhole(const Intrinsics& intrinsics);
+  /// An equirectangular map of 2h x h pixels.
+  static ScanCamera make_equirectangular(int h);
+  /// The equirectangular map of the paper's Sec. 7 for a cloud of `points` points: 2h x h with
+  /// h = sqrt(pi v / 3) rounded to the nearest integer (at least 1): 2 h^2 = 2 pi v / 3 pixels,
+  /// about two per point, since a scan covers only part of the sphere.
+  static ScanCamera equirectangular_for_points(long long points);
+
+  /// Map coordinates (u, v) of a scanner-frame point (metres), pixel (x, y) covering
+  /// [x, x + 1) x [y, y + 1) for the equirectangular map and centred on integers for the pinhole
+  /// one (Intrinsics' convention). False for a point the camera cannot see (pinhole: z <= 0 or
+  /// not finite; equirectangular: the scanner's own position or not finite).
+  bool project(const Eigen::Vector3f& p_scanner, float& u, float& v) const;
+  /// The integer pixel that project() lands in, or false outside the map.
+  bool pixel_of(const Eigen::Vector3f& p_scanner, int& x, int& y) const;
+  /// The depth of a scanner-frame point as this camera measures it: z for a pinhole camera, the
+  /// distance to the scanner for an equirectangular map.
+  float depth(const Eigen::Vector3f& p_scanner) const;
+  /// Pixels per metre at depth 1 m across the map's x axis (pinhole: fx; equirectangular:
+  /// width / (2 pi) at the equator). A sphere of radius r at depth d covers about
+  /// r * pixels_per_metre_at_1m() / d pixels: the adaptive SSAO disk radius of Sec. 4 (the
+  /// equirectangular row scale is the same, height / pi = width / (2 pi)).
+  float pixels_per_metre_at_1m() const;
+  /// True when the model is usable (positive size; a pinhole camera with valid intrinsics of the
+  /// same size).
+  bool valid() const;
+};
+
+}  // namespace aoscan

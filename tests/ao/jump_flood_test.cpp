@@ -1,0 +1,123 @@
+// Tests for src/ao/jump_flood.cpp: jump flooding against the exact distance field, the azimuth
+// wrap of equirectangular maps, and the border distance d_b of range maps with known edges.
+#include "ao/jump_flood.h"
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace aoscan {
+namespace {
+
+/// The exact distance field by brute force: the plain reference of jump_flood_distance().
+Image<float> exact_distance(const Image<std::uint8_t>& seeds, bool wrap_x) {
+  const int w = seeds.width(), h = seeds.height();
+  Image<float> out(w, h, std::numeric_limits<float>::infinity());
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int sy = 0; sy < h; ++sy)
+        for (int sx = 0; sx < w; ++sx) {
+          if (seeds(sx, sy) == 0) continue;
+          double dx = std::abs(x - sx);
+          if (wrap_x) dx = std::min(dx, w - dx);
+          const double d = std::sqrt(dx * dx + double(y - sy) * (y - sy));
+          out(x, y) = std::min(out(x, y), static_cast<float>(d));
+        }
+  return out;
+}
+
+TEST(JumpFlood, OneSeedGivesTheExactEuclideanDistance) {
+  Image<std::uint8_t> seeds(33, 20, 0);
+  seeds(7, 12) = 1;
+  Image<float> d;
+  jump_flood_distance(seeds, false, d);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 33; ++x)
+      EXPECT_FLOAT_EQ(d(x, y), std::hypot(float(x - 7), float(y - 12))) << x << " " << y;
+}
+
+TEST(JumpFlood, RandomSeedsMatchTheExactFieldAlmostEverywhere) {
+  // Jump flooding may pick a slightly farther seed at rare pixels; JFA+1 keeps those few and
+  // their error small. Tolerance: 99.5 % of the pixels exact, none off by more than one pixel.
+  for (const bool wrap : {false, true}) {
+    std::mt19937 rng(7);
+    Image<std::uint8_t> seeds(96, 48, 0);
+    for (int i = 0; i < 40; ++i) seeds(rng() % 96, rng() % 48) = 1;
+    Image<float> fast;
+    jump_flood_distance(seeds, wrap, fast);
+    const Image<float> exact = exact_distance(seeds, wrap);
+    int off = 0;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 96; ++x) {
+        EXPECT_GE(fast(x, y), exact(x, y) - 1e-4f);
+        EXPECT_LE(fast(x, y), exact(x, y) + 1.0f);
+        off += fast(x, y) > exact(x, y) + 1e-4f ? 1 : 0;
+      }
+    EXPECT_LE(off, 96 * 48 / 200) << (wrap ? "wrapped" : "plain");
+  }
+}
+
+TEST(JumpFlood, TheEquirectangularSeamIsNoBorder) {
+  Image<std::uint8_t> seeds(40, 10, 0);
+  seeds(0, 5) = 1;
+  Image<float> d;
+  jump_flood_distance(seeds, true, d);
+  EXPECT_FLOAT_EQ(d(39, 5), 1.0f);
+  EXPECT_FLOAT_EQ(d(20, 5), 20.0f);
+  jump_flood_distance(seeds, false, d);
+  EXPECT_FLOAT_EQ(d(39, 5), 39.0f);
+}
+
+TEST(JumpFlood, NoSeedIsInfinitelyFar) {
+  Image<float> d;
+  jump_flood_distance(Image<std::uint8_t>(5, 4, 0), false, d);
+  EXPECT_TRUE(std::isinf(d(2, 2)));
+}
+
+TEST(BorderDistance, ADepthStepAndTheMapsEdgeAreTheBorders) {
+  // Two fronto-parallel planes, 1 m (left half) and 2 m (right half): the Laplacian is non-zero
+  // only on the map's outer ring (outside reads 0) and on the two columns beside the step, 4 % of
+  // the pixels, so the 0.95 percentile is 0 and those pixels are exactly the edges, less the two
+  // ring pixels of column 79 where the step and the edge cancel (4 * 1 - 1 - 2 - 1 - 0 = 0).
+  const int w = 160, h = 120;
+  const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
+  Image<float> depth(w, h, 1.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 80; x < w; ++x) depth(x, y) = 2.0f;
+  RangeMap map;
+  range_map_from_depth(depth, k, map);
+  Image<float> d;
+  const BorderStats stats = border_distance(map, 0.01f, d);
+  EXPECT_EQ(stats.threshold, 0.0f);
+  EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2) + 2 * (h - 2) - 2);
+  EXPECT_FLOAT_EQ(d(0, 60), 0.0f);
+  EXPECT_FLOAT_EQ(d(79, 60), 0.0f);
+  EXPECT_FLOAT_EQ(d(80, 60), 0.0f);
+  EXPECT_FLOAT_EQ(d(40, 60), 39.0f);  // 40 from the left edge, 39 from column 79
+  EXPECT_FLOAT_EQ(d(120, 10), 10.0f);  // the top ring is nearest
+}
+
+TEST(BorderDistance, AFlatScanWithoutHolesHasOnlyItsOuterBorder) {
+  // A smooth surface's Laplacian noise must not become "the most valuable borders": the outer
+  // ring is 3 % of the pixels, so the 0.95 percentile falls in the noise, and the floor of 1 % of
+  // the depth (15 mm against a noise Laplacian of about 2 mm) rejects it.
+  const int w = 160, h = 120;
+  const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
+  Image<float> depth(w, h, 0.0f);
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.0f, 0.0005f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) depth(x, y) = 1.5f + noise(rng);
+  RangeMap map;
+  range_map_from_depth(depth, k, map);
+  Image<float> d;
+  const BorderStats stats = border_distance(map, 0.01f, d);
+  EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2));
+  EXPECT_FLOAT_EQ(d(80, 60), 59.0f);  // the bottom row is nearest
+}
+
+}  // namespace
+}  // namespace aoscan
