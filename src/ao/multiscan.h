@@ -1,0 +1,59 @@
+/// @file multiscan.h
+/// @brief Multi-view AO integration of registered scans (Sabbadin et al. 2016 Sec. 5, Eq. 6-12):
+/// every point of every scan takes the weighted average of the per-scan SSAO of the points that
+/// the scans measured at its place.
+#pragma once
+
+#include <vector>
+
+#include "ao/range_map.h"
+#include "core/image.h"
+
+namespace aoscan {
+
+/// One scan ready for the integration: its range map (normals set), its own SSAO (in [0, 1],
+/// 1 = open; the value of a pixel without a point is not read) and its border distance d_b in
+/// pixels (border_distance()).
+struct ScanAo {
+  RangeMap map;
+  Image<float> ssao;
+  Image<float> border_px;
+};
+
+/// Parameters of the integration.
+struct MultiScanParams {
+  float d_min_m = 1.0f;  ///< Eq. 10: the scanner's minimum range (m)
+  float d_max_m = 6.0f;  ///< Eq. 10: the largest depth of the scans (m)
+  float t_p_px = 64.0f;  ///< Eq. 12: the border distance (pixels) at which w_b reaches 1
+  bool border_weight = true;  ///< false: w_b = 1 (the ablation of Fig. 5)
+  int neighbourhood = 1;      ///< N of the N x N samples per corresponding point (odd, 1..9)
+  /// Scans whose world bounding boxes, grown by this margin (m), do not meet are not paired
+  /// (they cannot share a point); the margin covers the 2t distance test.
+  float pair_margin_m = 0.05f;
+};
+
+/// What integrate_scans() did.
+struct MultiScanStats {
+  long long points = 0;          ///< points of all scans
+  long long pairs_tested = 0;    ///< ordered scan pairs (i, j), i != j, whose boxes meet
+  long long pairs_skipped = 0;   ///< ordered pairs skipped by the bounding-box test
+  long long points_shared = 0;   ///< points with a sample from another scan in L_2
+  std::vector<int> isolated_scans;  ///< scans that share a point with no other scan
+};
+
+/// Eq. 6-9 for every point p_i of every scan i: each scan j (i itself included) whose box meets
+/// scan i's is a candidate; p_i is taken into scan j's frame (T_world_scanner_j^-1
+/// T_world_scanner_i p_i), projected into its map, and the point p_ij measured there joins L_2
+/// when it lies within 2 t of the projected point (t = the larger point radius of the two,
+/// point_radius()) and faces scanner i ((b - p_ij) . n_ij > 0, b = scanner i in scan j's frame).
+/// Each member of L_2 contributes the N x N pixels around it in scan j's map (those with a point
+/// and a normal facing scanner i), each with its SSAO weighted by w = w_d w_n w_b: w_d w_n of
+/// Eq. 10-11 for the sample seen from its own scanner (view_weight()), w_b = min(d_b / (t_p
+/// alpha), 1) of Eq. 12 with alpha = rad(p_i) / rad(sample). MVAO(p_i) is the weighted mean; a
+/// point whose samples all weigh 0 keeps its own SSAO. `mvao[i]` takes scan i's map size; pixels
+/// without a point get 1. Rows run in parallel; the result does not depend on the thread count.
+/// Throws usage_error on a bad neighbourhood or a scan whose images do not match its map.
+MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScanParams& params,
+                               std::vector<Image<float>>& mvao);
+
+}  // namespace aoscan
