@@ -6,8 +6,8 @@
 
 #include <vector>
 
-#include "ao/range_map.h"
 #include "core/image.h"
+#include "geometry/range_map.h"
 
 namespace aoscan {
 

@@ -43,6 +43,14 @@ struct ScanCamera {
   /// one (Intrinsics' convention). False for a point the camera cannot see (pinhole: z <= 0 or
   /// not finite; equirectangular: the scanner's own position or not finite).
   bool project(const Eigen::Vector3f& p_scanner, float& u, float& v) const;
+  /// Unit direction (scanner frame) of the ray through map coordinates (u, v): the inverse of
+  /// project() (pinhole: through (u, v) with pixel centres at integers; equirectangular: pixel
+  /// (x, y)'s centre is (x + 0.5, y + 0.5)).
+  Eigen::Vector3d ray(double u, double v) const;
+  /// The ray through the centre of pixel (x, y).
+  Eigen::Vector3d pixel_ray(int x, int y) const {
+    return projection == ScanProjection::kPinhole ? ray(x, y) : ray(x + 0.5, y + 0.5);
+  }
   /// The integer pixel that project() lands in, or false outside the map.
   bool pixel_of(const Eigen::Vector3f& p_scanner, int& x, int& y) const;
   /// The depth of a scanner-frame point as this camera measures it: z for a pinhole camera, the

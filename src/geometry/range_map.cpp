@@ -1,6 +1,6 @@
 /// @file range_map.cpp
 /// @brief Range maps from depth images and point clouds, and their normals.
-#include "ao/range_map.h"
+#include "geometry/range_map.h"
 
 #include <cmath>
 #include <string>

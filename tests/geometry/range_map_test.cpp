@@ -1,14 +1,14 @@
-// Tests for src/ao/scan_camera.cpp and src/ao/range_map.cpp: projections with exact answers, the
+// Tests for src/geometry/scan_camera.cpp and src/geometry/range_map.cpp: projections with exact answers, the
 // paper's equirectangular map size, rasterising clouds, and normals of planes.
-#include "ao/scan_camera.h"
+#include "geometry/scan_camera.h"
 
 #include <cmath>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "ao/range_map.h"
 #include "core/status.h"
+#include "geometry/range_map.h"
 
 namespace aoscan {
 namespace {

@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "ao/scan_camera.h"
+#include "geometry/scan_camera.h"
 #include "core/image.h"
 #include "core/pose.h"
 

@@ -1,6 +1,6 @@
 /// @file scan_camera.cpp
 /// @brief Pinhole and equirectangular scan cameras: projection and pixel footprint.
-#include "ao/scan_camera.h"
+#include "geometry/scan_camera.h"
 
 #include <algorithm>
 #include <cmath>
@@ -50,6 +50,14 @@ bool ScanCamera::project(const Eigen::Vector3f& p, float& u, float& v) const {
   u = static_cast<float>((phi + kPi) / (2.0 * kPi) * width);
   v = static_cast<float>(theta / kPi * height);
   return true;
+}
+
+Eigen::Vector3d ScanCamera::ray(double u, double v) const {
+  if (projection == ScanProjection::kPinhole)
+    return pinhole.unproject(u, v, 1.0).normalized();
+  const double phi = u / width * 2.0 * kPi - kPi;
+  const double theta = v / height * kPi;
+  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
 }
 
 bool ScanCamera::pixel_of(const Eigen::Vector3f& p, int& x, int& y) const {
