@@ -3,6 +3,8 @@
 #include "geometry/range_map.h"
 
 #include <cmath>
+
+#include <Eigen/Eigenvalues>
 #include <string>
 
 #include "core/status.h"
@@ -72,54 +74,43 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
   return skipped;
 }
 
-namespace {
-
-/// The neighbour of (x, y) at offset (dx, dy) on the map's grid (wrapping around in azimuth for
-/// an equirectangular map), or false when there is none or it has no point.
-bool neighbour(const RangeMap& map, int x, int y, int dx, int dy, int& nx, int& ny) {
-  nx = x + dx;
-  ny = y + dy;
-  if (map.camera.projection == ScanProjection::kEquirectangular)
-    nx = (nx + map.camera.width) % map.camera.width;
-  if (nx < 0 || ny < 0 || nx >= map.camera.width || ny >= map.camera.height) return false;
-  return map.has_point(nx, ny);
-}
-
-/// The difference vector to the neighbour along one axis: the forward one, else the backward
-/// one negated (so the cross product keeps its orientation); false when neither is usable.
-bool axis_difference(const RangeMap& map, int x, int y, int dx, int dy, float max_jump,
-                     Eigen::Vector3f& d) {
-  const Eigen::Vector3f& p = map.points(x, y);
-  const float depth = map.camera.depth(p);
-  for (const int sign : {1, -1}) {
-    int nx = 0, ny = 0;
-    if (!neighbour(map, x, y, sign * dx, sign * dy, nx, ny)) continue;
-    const Eigen::Vector3f& q = map.points(nx, ny);
-    if (std::abs(map.camera.depth(q) - depth) > max_jump * depth) continue;
-    d = static_cast<float>(sign) * (q - p);
-    return true;
-  }
-  return false;
-}
-
-}  // namespace
-
-void compute_range_map_normals(RangeMap& map, float max_jump_ratio) {
-  for (int y = 0; y < map.points.height(); ++y)
-    for (int x = 0; x < map.points.width(); ++x) {
+void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px) {
+  const int w = map.points.width(), h = map.points.height();
+  const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
       Eigen::Vector3f& n = map.normals(x, y);
-      if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f)) continue;
-      if (!map.has_point(x, y)) continue;
-      Eigen::Vector3f du, dv;
-      if (!axis_difference(map, x, y, 1, 0, max_jump_ratio, du) ||
-          !axis_difference(map, x, y, 0, 1, max_jump_ratio, dv))
-        continue;
-      Eigen::Vector3f c = du.cross(dv);
-      const float length = c.norm();
-      if (!(length > 0.0f) || !std::isfinite(length)) continue;
-      c /= length;
-      if (c.dot(map.points(x, y)) > 0.0f) c = -c;
-      n = c;
+      if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f) || !map.has_point(x, y)) continue;
+      const Eigen::Vector3f& p = map.points(x, y);
+      const float depth = map.camera.depth(p);
+      // Neighbours on the same surface, centred on p for a well-conditioned covariance.
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+      int count = 0;
+      for (int dy = -radius_px; dy <= radius_px; ++dy)
+        for (int dx = -radius_px; dx <= radius_px; ++dx) {
+          int sx = x + dx;
+          const int sy = y + dy;
+          if (wrap) sx = ((sx % w) + w) % w;
+          if (sx < 0 || sy < 0 || sx >= w || sy >= h || !map.has_point(sx, sy)) continue;
+          const Eigen::Vector3f& q = map.points(sx, sy);
+          if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) continue;
+          const Eigen::Vector3d d = (q - p).cast<double>();
+          sum += d;
+          outer += d * d.transpose();
+          ++count;
+        }
+      if (count < 3) continue;
+      const Eigen::Vector3d mean = sum / count;
+      const Eigen::Matrix3d covariance = outer / count - mean * mean.transpose();
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+      const Eigen::Vector3d values = eigen.eigenvalues();  // ascending
+      // Points on a line (or one point) leave the plane undetermined.
+      if (!(values(1) > 1e-6 * values(2))) continue;
+      Eigen::Vector3f c = eigen.eigenvectors().col(0).cast<float>();
+      if (!c.allFinite()) continue;
+      if (c.dot(p) > 0.0f) c = -c;
+      n = c.normalized();
     }
 }
 

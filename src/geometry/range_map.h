@@ -45,13 +45,13 @@ void range_map_from_depth(const Image<float>& depth_m, const Intrinsics& intrins
 long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
                            const std::vector<Eigen::Vector3f>& normals, RangeMap& map);
 
-/// Normals of the pixels whose normal is zero, from the map's grid: n = normalise((p_right - p)
-/// x (p_down - p)) with the left / up neighbour standing in for a missing right / down one (the
-/// equirectangular map wraps around in azimuth), oriented toward the scanner. No normal where
-/// the pixel has no point, where both neighbours on an axis are missing, or where a neighbour's
-/// depth differs from the pixel's by more than max_jump_ratio times the pixel's depth (a depth
-/// discontinuity).
-void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f);
+/// Normals of the pixels whose normal is zero, by principal component analysis of the points in
+/// the (2 radius_px + 1)^2 window around the pixel (the equirectangular map wraps in azimuth)
+/// whose depth lies within max_jump_ratio times the pixel's depth of its own (the same surface,
+/// not the one across a depth discontinuity): the direction of least spread, oriented toward the
+/// scanner (Hoppe et al. 1992, which the paper uses with 16 nearest points; a 5 x 5 window holds
+/// up to 25). No normal where fewer than three points qualify or they lie on a line.
+void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int radius_px = 2);
 
 /// The radius of the surface patch one pixel of `camera` covers at `depth_m` (metres): the
 /// footprint depth / pixels_per_metre_at_1m(). The rad(p) of Eq. 12's alpha = rad(p_i) / rad(p_ij)

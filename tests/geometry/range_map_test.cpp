@@ -143,11 +143,11 @@ TEST(RangeMap, NoNormalAcrossADepthJump) {
   RangeMap map;
   range_map_from_depth(depth, k, map);
   compute_range_map_normals(map, 0.05f);
-  // Pixel 4 falls back to its left neighbour, pixel 5 to its right one: both get the plane's
-  // normal; a lone column between two jumps would get none.
+  // Pixels 4 and 5 take their normals from their own side of the jump: both get the plane's
+  // normal; a lone column between two jumps (points on a line) gets none.
   EXPECT_NEAR(map.normals(4, 1).z(), -1.0f, 1e-6f);
   EXPECT_NEAR(map.normals(5, 1).z(), -1.0f, 1e-6f);
-  depth(7, 0) = depth(7, 1) = depth(7, 2) = depth(7, 3) = 3.0f;
+  for (int y = 0; y < 4; ++y) depth(7, y) = 3.0f;
   range_map_from_depth(depth, k, map);
   compute_range_map_normals(map, 0.05f);
   EXPECT_EQ(map.normals(7, 1), Eigen::Vector3f::Zero());
