@@ -1,0 +1,148 @@
+// Tests for src/pipeline/scan_set.cpp (`aoscan scans`): a manifest of laser point clouds and a
+// recording folder posed by its ground truth, through to points.ply, the per-scan PLYs and
+// stats.json; errors for inputs that hold no scan.
+#include "pipeline/scan_set.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "capture/recorder.h"
+#include "capture/synth_source.h"
+#include "core/status.h"
+#include "io/ply.h"
+#include "sim/synth_scanner.h"
+#include "support/scratch_dir.h"
+
+namespace aoscan {
+namespace {
+
+using testing::ScratchDir;
+using testing::write_text;
+
+/// A laser scan of the corner scene from `position`, written as a PLY cloud in a frame whose
+/// origin is 1 m below the scanner (so the manifest's scanner position matters).
+void write_laser_cloud(const std::string& path, const Eigen::Vector3d& position) {
+  RangeMap map;
+  render_scan(AnalyticScene::make("corner"), ScanCamera::make_equirectangular(120),
+              Pose(Eigen::Matrix3d::Identity(), position), 0.3, 20.0, ScannerNoise{}, map);
+  TriangleMesh cloud;
+  for (int y = 0; y < map.camera.height; ++y)
+    for (int x = 0; x < map.camera.width; ++x)
+      if (map.has_point(x, y)) cloud.vertices.push_back(map.points(x, y) + Eigen::Vector3f(0, 0, 1));
+  write_ply(path, cloud);
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
+  ScratchDir dir;
+  write_laser_cloud(dir.file("a.ply"), {2.6, 1.2, 1.4});
+  write_laser_cloud(dir.file("b.ply"), {1.1, 2.7, 1.6});
+  // Each cloud's frame sits 1 m below its scanner: pose = the frame's place in the world.
+  write_text(dir.file("set.yaml"), R"(scans:
+  - points: a.ply
+    scanner: [0, 0, 1]
+    pose: {t: [2.6, 1.2, 0.4], q: [0, 0, 0, 1]}
+  - points: b.ply
+    scanner: [0, 0, 1]
+    pose: {t: [1.1, 2.7, 0.6], q: [0, 0, 0, 1]}
+)");
+  ScansOptions options;
+  options.inputs = {dir.file("set.yaml")};
+  options.out_dir = dir.file("out");
+  const ScansResult r = run_scans(options);
+  ASSERT_EQ(r.scans.size(), 2u);
+  EXPECT_TRUE(r.isolated_scans.empty());
+  EXPECT_EQ(r.pairs_tested, 2);
+  EXPECT_GT(r.points_shared, r.points / 4);
+  const TriangleMesh all = read_ply(dir.file("out/points.ply"));
+  const TriangleMesh a = read_ply(dir.file("out/scans/a.ply"));
+  const TriangleMesh b = read_ply(dir.file("out/scans/b.ply"));
+  EXPECT_EQ(static_cast<long long>(all.vertices.size()), r.points);
+  EXPECT_EQ(a.vertices.size() + b.vertices.size(), all.vertices.size());
+  ASSERT_EQ(all.quality.size(), all.vertices.size());
+  int occluded = 0, without_normal = 0;
+  for (std::size_t i = 0; i < all.vertices.size(); ++i) {
+    EXPECT_GE(all.quality[i], 0.0f);
+    EXPECT_LE(all.quality[i], 1.0f);
+    occluded += all.quality[i] < 0.9f ? 1 : 0;
+    // World frame: the corner's floor, walls and furniture lie within its bounds.
+    EXPECT_GT(all.vertices[i].z(), -0.01f);
+    // A unit normal, or none where too few points of one surface surround it (a table leg one
+    // pixel wide).
+    const float length = all.normals[i].norm();
+    if (length == 0.0f) ++without_normal;
+    else EXPECT_NEAR(length, 1.0f, 1e-4f);
+  }
+  EXPECT_GT(occluded, 0);
+  EXPECT_LT(without_normal, static_cast<int>(all.vertices.size() / 100));
+  const nlohmann::json stats = read_json(dir.file("out/stats.json"));
+  EXPECT_EQ(stats["scans"], 2);
+  EXPECT_EQ(stats["points"], r.points);
+  EXPECT_TRUE(stats.contains("wall_s"));
+  EXPECT_TRUE(stats.contains("peak_rss_mb"));
+  EXPECT_EQ(stats["per_scan"][1]["name"], "b");
+
+  // --ssao-only writes each scan's own SSAO: different values, same points.
+  options.ssao_only = true;
+  options.out_dir = dir.file("ssao");
+  run_scans(options);
+  const TriangleMesh ssao = read_ply(dir.file("ssao/points.ply"));
+  ASSERT_EQ(ssao.vertices.size(), all.vertices.size());
+  EXPECT_EQ(ssao.vertices, all.vertices);
+  EXPECT_NE(ssao.quality, all.quality);
+}
+
+TEST(ScanSet, EveryKthFrameOfARecordingIsAScanPosedByItsGroundTruth) {
+  ScratchDir dir;
+  const std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=25&width=160&height=120");
+  record_source(*source, dir.file("rec"), std::nullopt, nullptr);
+  ScansOptions options;
+  options.inputs = {dir.file("rec")};
+  options.out_dir = dir.file("out");
+  options.every = 10;
+  const ScansResult r = run_scans(options);
+  ASSERT_EQ(r.scans.size(), 3u);  // frames 0, 10, 20
+  EXPECT_EQ(r.scans[1].name, "rec-10");
+  EXPECT_EQ(r.frames_without_pose, 0);
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("out/scans/rec-20.ply")));
+  // Without a trajectory the frames cannot be posed.
+  std::filesystem::remove(dir.file("rec/groundtruth.txt"));
+  try {
+    run_scans(options);
+    ADD_FAILURE() << "no error without poses";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kBadInput);
+    EXPECT_NE(std::string(e.what()).find("--poses"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ScanSet, InputsThatHoldNoScanAreErrors) {
+  ScratchDir dir;
+  ScansOptions options;
+  options.out_dir = dir.file("out");
+  EXPECT_THROW(run_scans(options), Error);  // no input
+  options.inputs = {dir.file("nothing.txt")};
+  write_text(dir.file("nothing.txt"), "x");
+  EXPECT_THROW(run_scans(options), Error);
+  TriangleMesh empty;
+  write_ply(dir.file("empty.ply"), empty);
+  write_text(dir.file("m.json"), R"({"scans": [{"points": "empty.ply"}]})");
+  options.inputs = {dir.file("m.json")};
+  try {
+    run_scans(options);
+    ADD_FAILURE() << "no error for an empty cloud";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("empty"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out/points.ply")));
+}
+
+}  // namespace
+}  // namespace aoscan
