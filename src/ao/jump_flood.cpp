@@ -65,8 +65,7 @@ void flood_pass(const Image<SeedRef>& in, int k, bool wrap_x, Image<SeedRef>& ou
 
 }  // namespace
 
-void jump_flood_distance(const Image<std::uint8_t>& seeds, bool wrap_x,
-                         Image<float>& distance_px) {
+void jump_flood_distance(const Image<std::uint8_t>& seeds, bool wrap_x, Image<float>& distance_px) {
   const int w = seeds.width(), h = seeds.height();
   Image<SeedRef> a(w, h, SeedRef{}), b(w, h, SeedRef{});
   bool any = false;
@@ -92,8 +91,8 @@ void jump_flood_distance(const Image<std::uint8_t>& seeds, bool wrap_x,
   const int wrap_width = wrap_x ? w : 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      distance_px(x, y) =
-          static_cast<float>(std::sqrt(static_cast<double>(distance_sq(x, y, b(x, y), wrap_width))));
+      distance_px(x, y) = static_cast<float>(
+          std::sqrt(static_cast<double>(distance_sq(x, y, b(x, y), wrap_width))));
 }
 
 BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<float>& distance_px) {

@@ -31,9 +31,10 @@ struct BorderStats {
 /// the map's depth D (a pixel without a point, or outside the map, reads 0, so holes and the map's
 /// edge are borders; an equirectangular map wraps in azimuth); edges are the pixels with a point
 /// whose Laplacian reaches the 0.95 percentile of the Laplacian over the pixels with a point
-/// (nearest rank) and exceeds min_edge_ratio times their own depth (the floor keeps the noise of a smooth surface from
-/// being taken as its "most valuable borders" when the scan has no real discontinuity); then the
-/// jump-flooding distance to the nearest edge, in pixels. Pixels without a point get 0.
+/// (nearest rank) and exceeds min_edge_ratio times their own depth (the floor keeps the noise of a
+/// smooth surface from being taken as its "most valuable borders" when the scan has no real
+/// discontinuity); then the jump-flooding distance to the nearest edge, in pixels. Pixels without a
+/// point get 0.
 BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<float>& distance_px);
 
 }  // namespace aoscan

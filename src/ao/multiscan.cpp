@@ -6,9 +6,9 @@
 #include <cmath>
 #include <string>
 
-#include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <Eigen/Geometry>
 
 #include "ao/ssao.h"
 #include "core/status.h"
@@ -122,35 +122,36 @@ MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScan
     Image<float>& out = mvao[i];
     out.resize(map_i.camera.width, map_i.camera.height, 1.0f);
     std::vector<long long> shared_rows(map_i.camera.height, 0);
-    tbb::parallel_for(tbb::blocked_range<int>(0, map_i.camera.height),
-                      [&](const tbb::blocked_range<int>& rows) {
-      for (int y = rows.begin(); y < rows.end(); ++y)
-        for (int x = 0; x < map_i.camera.width; ++x) {
-          if (!map_i.has_point(x, y)) {
-            out(x, y) = 1.0f;
-            continue;
-          }
-          const Eigen::Vector3f& p = map_i.points(x, y);
-          const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
-          Sum sum;
-          for (const PairFrame& f : frames) {
-            const ScanAo& scan_j = scans[f.j];
-            const Eigen::Vector3f q = f.R * p + f.t;
-            int px = 0, py = 0;
-            if (!scan_j.map.camera.pixel_of(q, px, py) || !scan_j.map.has_point(px, py)) continue;
-            const Eigen::Vector3f& p_ij = scan_j.map.points(px, py);
-            const float t = std::max(
-                rad_i, point_radius(scan_j.map.camera, scan_j.map.camera.depth(p_ij)));
-            if (!((q - p_ij).norm() < 2.0f * t)) continue;
-            if (!((f.scanner_i - p_ij).dot(scan_j.map.normals(px, py)) > 0.0f)) continue;
-            const double before = sum.w;
-            add_samples(scan_j, f, px, py, rad_i, params, sum);
-            if (f.j != i && sum.w > before) sum.other_scan = true;
-          }
-          out(x, y) = sum.w > 0.0 ? static_cast<float>(sum.ao_w / sum.w) : scans[i].ssao(x, y);
-          shared_rows[y] += sum.other_scan ? 1 : 0;
-        }
-    });
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, map_i.camera.height), [&](const tbb::blocked_range<int>& rows) {
+          for (int y = rows.begin(); y < rows.end(); ++y)
+            for (int x = 0; x < map_i.camera.width; ++x) {
+              if (!map_i.has_point(x, y)) {
+                out(x, y) = 1.0f;
+                continue;
+              }
+              const Eigen::Vector3f& p = map_i.points(x, y);
+              const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
+              Sum sum;
+              for (const PairFrame& f : frames) {
+                const ScanAo& scan_j = scans[f.j];
+                const Eigen::Vector3f q = f.R * p + f.t;
+                int px = 0, py = 0;
+                if (!scan_j.map.camera.pixel_of(q, px, py) || !scan_j.map.has_point(px, py))
+                  continue;
+                const Eigen::Vector3f& p_ij = scan_j.map.points(px, py);
+                const float t =
+                    std::max(rad_i, point_radius(scan_j.map.camera, scan_j.map.camera.depth(p_ij)));
+                if (!((q - p_ij).norm() < 2.0f * t)) continue;
+                if (!((f.scanner_i - p_ij).dot(scan_j.map.normals(px, py)) > 0.0f)) continue;
+                const double before = sum.w;
+                add_samples(scan_j, f, px, py, rad_i, params, sum);
+                if (f.j != i && sum.w > before) sum.other_scan = true;
+              }
+              out(x, y) = sum.w > 0.0 ? static_cast<float>(sum.ao_w / sum.w) : scans[i].ssao(x, y);
+              shared_rows[y] += sum.other_scan ? 1 : 0;
+            }
+        });
     for (long long c : shared_rows) shared[i] += c;
     stats.points_shared += shared[i];
   }

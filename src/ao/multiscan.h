@@ -22,9 +22,9 @@ struct ScanAo {
 
 /// Parameters of the integration.
 struct MultiScanParams {
-  float d_min_m = 1.0f;  ///< Eq. 10: the scanner's minimum range (m)
-  float d_max_m = 6.0f;  ///< Eq. 10: the largest depth of the scans (m)
-  float t_p_px = 64.0f;  ///< Eq. 12: the border distance (pixels) at which w_b reaches 1
+  float d_min_m = 1.0f;       ///< Eq. 10: the scanner's minimum range (m)
+  float d_max_m = 6.0f;       ///< Eq. 10: the largest depth of the scans (m)
+  float t_p_px = 64.0f;       ///< Eq. 12: the border distance (pixels) at which w_b reaches 1
   bool border_weight = true;  ///< false: w_b = 1 (the ablation of Fig. 5)
   int neighbourhood = 1;      ///< N of the N x N samples per corresponding point (odd, 1..9)
   /// Scans whose world bounding boxes, grown by this margin (m), do not meet are not paired
@@ -34,10 +34,10 @@ struct MultiScanParams {
 
 /// What integrate_scans() did.
 struct MultiScanStats {
-  long long points = 0;          ///< points of all scans
-  long long pairs_tested = 0;    ///< ordered scan pairs (i, j), i != j, whose boxes meet
-  long long pairs_skipped = 0;   ///< ordered pairs skipped by the bounding-box test
-  long long points_shared = 0;   ///< points with a sample from another scan in L_2
+  long long points = 0;             ///< points of all scans
+  long long pairs_tested = 0;       ///< ordered scan pairs (i, j), i != j, whose boxes meet
+  long long pairs_skipped = 0;      ///< ordered pairs skipped by the bounding-box test
+  long long points_shared = 0;      ///< points with a sample from another scan in L_2
   std::vector<int> isolated_scans;  ///< scans that share a point with no other scan
 };
 

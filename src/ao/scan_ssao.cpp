@@ -33,12 +33,14 @@ float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& p
   const float depth = camera.depth(p);
   const float radius_m = static_cast<float>(config.radius_m);
   const float t_max = static_cast<float>(config.t_max_m);
-  const float radius_px = std::min(radius_m * camera.pixels_per_metre_at_1m() / depth, kMaxRadiusPx);
+  const float radius_px =
+      std::min(radius_m * camera.pixels_per_metre_at_1m() / depth, kMaxRadiusPx);
   const AoEstimator estimator =
       pattern.estimator == AoEstimator::kPaper || pattern.estimator == AoEstimator::kAlchemy
           ? pattern.estimator
           : AoEstimator::kObscurance;
-  const float bias_m = estimator == AoEstimator::kPaper ? 0.0f : static_cast<float>(config.bias) * depth;
+  const float bias_m =
+      estimator == AoEstimator::kPaper ? 0.0f : static_cast<float>(config.bias) * depth;
   const float r2eps = kAlchemyEpsilon * radius_m * radius_m;
   const int cls = (x & 3) + kSsaoPatternTile * (y & 3);
   const bool wrap = camera.projection == ScanProjection::kEquirectangular;

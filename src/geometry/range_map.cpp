@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <Eigen/Eigenvalues>
 #include <string>
 
@@ -77,41 +79,44 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
 void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px) {
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      Eigen::Vector3f& n = map.normals(x, y);
-      if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f) || !map.has_point(x, y)) continue;
-      const Eigen::Vector3f& p = map.points(x, y);
-      const float depth = map.camera.depth(p);
-      // Neighbours on the same surface, centred on p for a well-conditioned covariance.
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-      int count = 0;
-      for (int dy = -radius_px; dy <= radius_px; ++dy)
-        for (int dx = -radius_px; dx <= radius_px; ++dx) {
-          int sx = x + dx;
-          const int sy = y + dy;
-          if (wrap) sx = ((sx % w) + w) % w;
-          if (sx < 0 || sy < 0 || sx >= w || sy >= h || !map.has_point(sx, sy)) continue;
-          const Eigen::Vector3f& q = map.points(sx, sy);
-          if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) continue;
-          const Eigen::Vector3d d = (q - p).cast<double>();
-          sum += d;
-          outer += d * d.transpose();
-          ++count;
-        }
-      if (count < 3) continue;
-      const Eigen::Vector3d mean = sum / count;
-      const Eigen::Matrix3d covariance = outer / count - mean * mean.transpose();
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
-      const Eigen::Vector3d values = eigen.eigenvalues();  // ascending
-      // Points on a line (or one point) leave the plane undetermined.
-      if (!(values(1) > 1e-6 * values(2))) continue;
-      Eigen::Vector3f c = eigen.eigenvectors().col(0).cast<float>();
-      if (!c.allFinite()) continue;
-      if (c.dot(p) > 0.0f) c = -c;
-      n = c.normalized();
-    }
+  // Each pixel reads only points and writes only its own normal: rows run in parallel.
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        Eigen::Vector3f& n = map.normals(x, y);
+        if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f) || !map.has_point(x, y)) continue;
+        const Eigen::Vector3f& p = map.points(x, y);
+        const float depth = map.camera.depth(p);
+        // Neighbours on the same surface, centred on p for a well-conditioned covariance.
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+        int count = 0;
+        for (int dy = -radius_px; dy <= radius_px; ++dy)
+          for (int dx = -radius_px; dx <= radius_px; ++dx) {
+            int sx = x + dx;
+            const int sy = y + dy;
+            if (wrap) sx = ((sx % w) + w) % w;
+            if (sx < 0 || sy < 0 || sx >= w || sy >= h || !map.has_point(sx, sy)) continue;
+            const Eigen::Vector3f& q = map.points(sx, sy);
+            if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) continue;
+            const Eigen::Vector3d d = (q - p).cast<double>();
+            sum += d;
+            outer += d * d.transpose();
+            ++count;
+          }
+        if (count < 3) continue;
+        const Eigen::Vector3d mean = sum / count;
+        const Eigen::Matrix3d covariance = outer / count - mean * mean.transpose();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+        const Eigen::Vector3d values = eigen.eigenvalues();  // ascending
+        // Points on a line (or one point) leave the plane undetermined.
+        if (!(values(1) > 1e-6 * values(2))) continue;
+        Eigen::Vector3f c = eigen.eigenvectors().col(0).cast<float>();
+        if (!c.allFinite()) continue;
+        if (c.dot(p) > 0.0f) c = -c;
+        n = c.normalized();
+      }
+  });
 }
 
 float point_radius(const ScanCamera& camera, float depth_m) {

@@ -8,17 +8,17 @@
 
 #include <Eigen/Core>
 
-#include "geometry/scan_camera.h"
 #include "core/image.h"
 #include "core/pose.h"
+#include "geometry/scan_camera.h"
 
 namespace aoscan {
 
 /// A scan's G-buffer. A pixel without a point has a zero position and a zero normal.
 struct RangeMap {
-  std::string name;        ///< for messages and output file names
-  ScanCamera camera;       ///< how pixels map to directions from the scanner
-  Pose T_world_scanner;    ///< scanner frame to world (the registration); the scanner sits at 0
+  std::string name;      ///< for messages and output file names
+  ScanCamera camera;     ///< how pixels map to directions from the scanner
+  Pose T_world_scanner;  ///< scanner frame to world (the registration); the scanner sits at 0
   Image<Eigen::Vector3f> points;   ///< scanner frame (metres)
   Image<Eigen::Vector3f> normals;  ///< scanner frame, unit, facing the scanner (n . p < 0)
 
@@ -34,8 +34,7 @@ struct RangeMap {
 /// Makes `map` a pinhole range map of a metric depth image (metres along z, 0 = invalid) seen
 /// with `intrinsics`: every valid pixel's camera-frame point, normals zero (see
 /// compute_range_map_normals()). Throws input_error when the sizes differ.
-void range_map_from_depth(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                          RangeMap& map);
+void range_map_from_depth(const Image<float>& depth_m, const Intrinsics& intrinsics, RangeMap& map);
 
 /// Rasterises a point cloud given in the scanner frame into `map` (whose camera must be set and
 /// valid): each point goes to the pixel it projects to, and where several land in one pixel the
@@ -50,7 +49,8 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
 /// whose depth lies within max_jump_ratio times the pixel's depth of its own (the same surface,
 /// not the one across a depth discontinuity): the direction of least spread, oriented toward the
 /// scanner (Hoppe et al. 1992, which the paper uses with 16 nearest points; a 5 x 5 window holds
-/// up to 25). No normal where fewer than three points qualify or they lie on a line.
+/// up to 25). No normal where fewer than three points qualify or they lie on a line. Rows run in
+/// parallel; the result does not depend on the thread count.
 void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int radius_px = 2);
 
 /// The radius of the surface patch one pixel of `camera` covers at `depth_m` (metres): the

@@ -53,8 +53,7 @@ bool ScanCamera::project(const Eigen::Vector3f& p, float& u, float& v) const {
 }
 
 Eigen::Vector3d ScanCamera::ray(double u, double v) const {
-  if (projection == ScanProjection::kPinhole)
-    return pinhole.unproject(u, v, 1.0).normalized();
+  if (projection == ScanProjection::kPinhole) return pinhole.unproject(u, v, 1.0).normalized();
   const double phi = u / width * 2.0 * kPi - kPi;
   const double theta = v / height * kPi;
   return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};

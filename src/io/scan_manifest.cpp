@@ -8,8 +8,8 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
+#include <Eigen/Geometry>
 
 #include "core/status.h"
 
@@ -65,8 +65,9 @@ Pose read_pose(const YAML::Node& node, const Context& c) {
     m.topLeftCorner<3, 3>() = quat.normalized().toRotationMatrix();
     m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]);
   } else {
-    c.fail("pose must be 16 numbers (a 4 x 4 matrix, row-major) or {t: [x, y, z], q: [qx, qy, "
-           "qz, qw]}");
+    c.fail(
+        "pose must be 16 numbers (a 4 x 4 matrix, row-major) or {t: [x, y, z], q: [qx, qy, "
+        "qz, qw]}");
   }
   const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
   if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-4 || R.determinant() < 0.0)
@@ -97,13 +98,13 @@ Intrinsics read_camera(const YAML::Node& node, const Context& c, double& depth_s
 
 ScanEntry read_entry(const YAML::Node& node, const fs::path& base, Context& c) {
   if (!node.IsMap()) c.fail("each scan must be a map of keys");
-  static const std::set<std::string> kKeys = {"name", "depth", "points", "camera", "pose",
-                                              "scanner"};
+  static const std::set<std::string> kKeys = {"name",   "depth", "points",
+                                              "camera", "pose",  "scanner"};
   for (const auto& kv : node) {
     const std::string key = kv.first.as<std::string>();
     if (!kKeys.count(key))
-      throw usage_error(c.path + ": scan " + std::to_string(c.index + 1) + ": unknown key '" +
-                        key + "' (name, depth, camera, points, scanner, pose)");
+      throw usage_error(c.path + ": scan " + std::to_string(c.index + 1) + ": unknown key '" + key +
+                        "' (name, depth, camera, points, scanner, pose)");
   }
   ScanEntry e;
   const bool depth = static_cast<bool>(node["depth"]);

@@ -21,7 +21,7 @@ struct ScanEntry {
   };
   std::string name;  ///< unique within the set; the file's stem when not given
   Kind kind = Kind::kDepthImage;
-  std::string path;  ///< the depth PNG or the PLY
+  std::string path;          ///< the depth PNG or the PLY
   Intrinsics intrinsics;     ///< depth images: the camera (its size is the image's)
   double depth_scale = 0.0;  ///< depth images: raw units per metre
   /// The scan's registration: depth images, camera to world; point clouds, the cloud's own frame

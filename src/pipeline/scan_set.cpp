@@ -8,8 +8,8 @@
 #include <fstream>
 #include <memory>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "ao/jump_flood.h"
 #include "ao/multiscan.h"
@@ -87,8 +87,9 @@ void load_recording(const std::string& folder, const ScansOptions& options,
         break;
       }
     if (poses_path.empty())
-      throw input_error(folder + ": no trajectory.txt or groundtruth.txt to pose its frames "
-                                 "(give --poses FILE)");
+      throw input_error(folder +
+                        ": no trajectory.txt or groundtruth.txt to pose its frames "
+                        "(give --poses FILE)");
   }
   const std::vector<StampedPose> poses = read_trajectory(poses_path);
   const std::unique_ptr<Source> source = open_tum_folder(folder);
@@ -151,12 +152,16 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
   j["points_shared"] = r.points_shared;
   j["isolated_scans"] = r.isolated_scans;
   j["d_max_m"] = r.d_max_m;
-  j["stages_s"] = {{"load", r.load_s}, {"ssao", r.ssao_s}, {"integrate", r.integrate_s},
-                   {"write", r.write_s}};
+  j["stages_s"] = {
+      {"load", r.load_s}, {"ssao", r.ssao_s}, {"integrate", r.integrate_s}, {"write", r.write_s}};
   nlohmann::json per_scan = nlohmann::json::array();
   for (const ScanSummary& s : r.scans)
-    per_scan.push_back({{"name", s.name}, {"source", s.source}, {"width", s.width},
-                        {"height", s.height}, {"points", s.points}, {"points_skipped", s.skipped}});
+    per_scan.push_back({{"name", s.name},
+                        {"source", s.source},
+                        {"width", s.width},
+                        {"height", s.height},
+                        {"points", s.points},
+                        {"points_skipped", s.skipped}});
   j["per_scan"] = per_scan;
   std::ofstream out(path);
   out << j.dump(2) << "\n";

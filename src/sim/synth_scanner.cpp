@@ -11,8 +11,7 @@
 namespace aoscan {
 
 void render_scan(const AnalyticScene& scene, const ScanCamera& camera, const Pose& T_world_scanner,
-                 double min_range_m, double max_range_m, const ScannerNoise& noise,
-                 RangeMap& map) {
+                 double min_range_m, double max_range_m, const ScannerNoise& noise, RangeMap& map) {
   if (!camera.valid()) throw usage_error(map.name + ": the scanner's camera is not usable");
   map.camera = camera;
   map.T_world_scanner = T_world_scanner;

@@ -27,7 +27,6 @@ struct ScannerNoise {
 /// Pixels without a hit stay empty. Rows run in parallel; every pixel is a pure function of its
 /// inputs, so any thread count gives the same map. `map.name` is kept.
 void render_scan(const AnalyticScene& scene, const ScanCamera& camera, const Pose& T_world_scanner,
-                 double min_range_m, double max_range_m, const ScannerNoise& noise,
-                 RangeMap& map);
+                 double min_range_m, double max_range_m, const ScannerNoise& noise, RangeMap& map);
 
 }  // namespace aoscan

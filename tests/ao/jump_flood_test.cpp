@@ -96,7 +96,7 @@ TEST(BorderDistance, ADepthStepAndTheMapsEdgeAreTheBorders) {
   EXPECT_FLOAT_EQ(d(0, 60), 0.0f);
   EXPECT_FLOAT_EQ(d(79, 60), 0.0f);
   EXPECT_FLOAT_EQ(d(80, 60), 0.0f);
-  EXPECT_FLOAT_EQ(d(40, 60), 39.0f);  // 40 from the left edge, 39 from column 79
+  EXPECT_FLOAT_EQ(d(40, 60), 39.0f);   // 40 from the left edge, 39 from column 79
   EXPECT_FLOAT_EQ(d(120, 10), 10.0f);  // the top ring is nearest
 }
 

@@ -69,7 +69,8 @@ TEST(MultiScanAccuracy, ThreeNoisyLaserScansOfTheCornerBeatEachScansOwnSsao) {
   // points (a laser scan has none), the default AO configuration.
   const AnalyticScene scene = AnalyticScene::make("corner");
   const AoConfig config;
-  const std::vector<Eigen::Vector3d> positions = {{2.6, 1.2, 1.4}, {1.1, 2.7, 1.6}, {2.2, 2.3, 0.9}};
+  const std::vector<Eigen::Vector3d> positions = {
+      {2.6, 1.2, 1.4}, {1.1, 2.7, 1.6}, {2.2, 2.3, 0.9}};
   std::vector<ScanAo> scans(positions.size());
   for (std::size_t i = 0; i < positions.size(); ++i) {
     ScannerNoise noise;

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "ao/ssao.h"
 #include "core/status.h"
@@ -133,7 +133,8 @@ TEST(MultiScan, TheNeighbourhoodAveragesTheNByNPixelsWithTheirWeights) {
   double sum = 0.0, weights = 0.0;
   for (int y = 9; y <= 11; ++y)
     for (int x = 19; x <= 21; ++x) {
-      const float w = view_weight(scans[0].map.points(x, y), scans[0].map.normals(x, y), 0.5f, 5.0f);
+      const float w =
+          view_weight(scans[0].map.points(x, y), scans[0].map.normals(x, y), 0.5f, 5.0f);
       sum += static_cast<double>(w) * scans[0].ssao(x, y);
       weights += w;
     }

@@ -1,5 +1,5 @@
-// Tests for src/geometry/scan_camera.cpp and src/geometry/range_map.cpp: projections with exact answers, the
-// paper's equirectangular map size, rasterising clouds, and normals of planes.
+// Tests for src/geometry/scan_camera.cpp and src/geometry/range_map.cpp: projections with exact
+// answers, the paper's equirectangular map size, rasterising clouds, and normals of planes.
 #include "geometry/scan_camera.h"
 
 #include <cmath>
@@ -90,10 +90,11 @@ TEST(RangeMap, DepthImagePixelsBecomeTheirCameraFramePoints) {
 TEST(RangeMap, RasterisingKeepsTheNearestPointOfEachPixel) {
   RangeMap map;
   map.camera = ScanCamera::make_equirectangular(10);
-  const std::vector<Eigen::Vector3f> points = {
-      {3.0f, 0.0f, 0.0f}, {2.0f, 0.0f, 0.0f}, {4.0f, 0.0f, 0.0f},  // one pixel, nearest is 2 m
-      {0.0f, 0.0f, 0.0f},                                          // the scanner: skipped
-      {NAN, 0.0f, 1.0f}};                                          // not finite: skipped
+  const std::vector<Eigen::Vector3f> points = {{3.0f, 0.0f, 0.0f},
+                                               {2.0f, 0.0f, 0.0f},
+                                               {4.0f, 0.0f, 0.0f},  // one pixel, nearest is 2 m
+                                               {0.0f, 0.0f, 0.0f},  // the scanner: skipped
+                                               {NAN, 0.0f, 1.0f}};  // not finite: skipped
   const std::vector<Eigen::Vector3f> normals = {
       {1.0f, 0.0f, 0.0f}, {2.0f, 0.0f, 0.0f}, {1.0f, 0.0f, 0.0f}, {0, 0, 1}, {0, 0, 1}};
   EXPECT_EQ(rasterize_points(points, normals, map), 2);

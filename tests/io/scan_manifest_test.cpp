@@ -47,7 +47,8 @@ TEST(ScanManifest, ReadsDepthAndPointScansWithBothPoseForms) {
   EXPECT_EQ(scans[0].path, dir.file("d/a.png"));
   EXPECT_EQ(scans[0].intrinsics.fy, 501.0);
   EXPECT_EQ(scans[0].depth_scale, 1000.0);
-  EXPECT_TRUE((scans[0].T_world_scan * Eigen::Vector3d(1, 0, 0)).isApprox(Eigen::Vector3d(1, 3, 3)));
+  EXPECT_TRUE(
+      (scans[0].T_world_scan * Eigen::Vector3d(1, 0, 0)).isApprox(Eigen::Vector3d(1, 3, 3)));
   EXPECT_EQ(scans[1].name, "hall");
   EXPECT_EQ(scans[1].kind, ScanEntry::Kind::kPointCloud);
   EXPECT_EQ(scans[1].scanner, Eigen::Vector3d(0, 0, 1.5));

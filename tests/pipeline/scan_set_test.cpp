@@ -31,7 +31,8 @@ void write_laser_cloud(const std::string& path, const Eigen::Vector3d& position)
   TriangleMesh cloud;
   for (int y = 0; y < map.camera.height; ++y)
     for (int x = 0; x < map.camera.width; ++x)
-      if (map.has_point(x, y)) cloud.vertices.push_back(map.points(x, y) + Eigen::Vector3f(0, 0, 1));
+      if (map.has_point(x, y))
+        cloud.vertices.push_back(map.points(x, y) + Eigen::Vector3f(0, 0, 1));
   write_ply(path, cloud);
 }
 
@@ -77,8 +78,10 @@ TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
     // A unit normal, or none where too few points of one surface surround it (a table leg one
     // pixel wide).
     const float length = all.normals[i].norm();
-    if (length == 0.0f) ++without_normal;
-    else EXPECT_NEAR(length, 1.0f, 1e-4f);
+    if (length == 0.0f)
+      ++without_normal;
+    else
+      EXPECT_NEAR(length, 1.0f, 1e-4f);
   }
   EXPECT_GT(occluded, 0);
   EXPECT_LT(without_normal, static_cast<int>(all.vertices.size() / 100));
@@ -101,7 +104,8 @@ TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
 
 TEST(ScanSet, EveryKthFrameOfARecordingIsAScanPosedByItsGroundTruth) {
   ScratchDir dir;
-  const std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=25&width=160&height=120");
+  const std::unique_ptr<Source> source =
+      open_synth_source("synth:corner?frames=25&width=160&height=120");
   record_source(*source, dir.file("rec"), std::nullopt, nullptr);
   ScansOptions options;
   options.inputs = {dir.file("rec")};

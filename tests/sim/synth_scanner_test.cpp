@@ -23,8 +23,8 @@ TEST(SynthScanner, AnEquirectangularScanOfAWallLiesOnTheWall) {
       const Eigen::Vector3d ray = map.camera.pixel_ray(x, y);
       const double t = ray.y() > 0.0 ? 2.0 / ray.y() : -1.0;
       const Eigen::Vector3d hit = T.translation() + t * ray;
-      const bool expected = t > 0.0 && t <= 100.0 && std::abs(hit.x()) <= 10.0 &&
-                            std::abs(hit.z()) <= 10.0;
+      const bool expected =
+          t > 0.0 && t <= 100.0 && std::abs(hit.x()) <= 10.0 && std::abs(hit.z()) <= 10.0;
       ASSERT_EQ(map.has_point(x, y), expected) << x << " " << y;
       if (!expected) continue;
       const Eigen::Vector3d p_world = T * map.points(x, y).cast<double>();
@@ -37,7 +37,8 @@ TEST(SynthScanner, AnEquirectangularScanOfAWallLiesOnTheWall) {
 TEST(SynthScanner, RangeNoiseHasItsStatedSpreadAndIsTheSameOnAnyThreadCount) {
   const AnalyticScene scene = AnalyticScene::make("plane");
   const Pose T(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.0, -3.0, 0.0));
-  const ScanCamera camera = ScanCamera::make_pinhole(Intrinsics{160, 120, 120.0, 120.0, 79.5, 59.5});
+  const ScanCamera camera =
+      ScanCamera::make_pinhole(Intrinsics{160, 120, 120.0, 120.0, 79.5, 59.5});
   // The pinhole camera looks along +z: turn it to look along +y at the wall.
   const Eigen::Matrix3d look_y = (Eigen::Matrix3d() << 1, 0, 0, 0, 0, 1, 0, -1, 0).finished();
   const Pose T_look(look_y, T.translation());
