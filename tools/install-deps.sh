@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-dev libcli11-dev
           nlohmann-json3-dev libyaml-cpp-dev libtbb-dev
           libopenvdb-dev libboost-iostreams-dev     # volume.vdb (--save-volume)
+          libtinyxml2-dev                            # MeshLab projects (aoscan scans)
           libopenni2-dev libfreenect-dev             # live cameras (libusb comes with libfreenect)
           libglfw3-dev libglm-dev libgl-dev          # live view: GLFW window, GLM, GL headers
           libx11-dev libxrandr-dev)                  # live view: surviving a lost X display (glfw3native.h)

@@ -18,7 +18,9 @@
 #include "capture/tum_source.h"
 #include "core/status.h"
 #include "fusion/preprocess/preprocess.h"
+#include "io/meshlab_project.h"
 #include "io/ply.h"
+#include "io/ptx.h"
 #include "io/scan_manifest.h"
 #include "io/tum.h"
 #include "pipeline/session.h"
@@ -46,6 +48,13 @@ void depth_scan(const DepthFrame& frame, const PreprocessConfig& preprocess, Ran
   range_map_from_depth(depth_m, frame.intrinsics, map);
 }
 
+/// A scanner-frame point cloud (normals optional) as the equirectangular map of Sec. 7.
+void cloud_scan(const std::vector<Eigen::Vector3f>& points,
+                const std::vector<Eigen::Vector3f>& normals, RangeMap& map, ScanSummary& summary) {
+  map.camera = ScanCamera::equirectangular_for_points(static_cast<long long>(points.size()));
+  summary.skipped = rasterize_points(points, normals, map);
+}
+
 void load_manifest_scan(const ScanEntry& e, const Config& config, ScanAo& scan,
                         ScanSummary& summary) {
   RangeMap& map = scan.map;
@@ -69,9 +78,26 @@ void load_manifest_scan(const ScanEntry& e, const Config& config, ScanAo& scan,
   std::vector<Eigen::Vector3f> points(cloud.vertices.size());
   const Eigen::Vector3f scanner = e.scanner.cast<float>();
   for (std::size_t i = 0; i < points.size(); ++i) points[i] = cloud.vertices[i] - scanner;
-  map.camera = ScanCamera::equirectangular_for_points(static_cast<long long>(points.size()));
-  summary.skipped = rasterize_points(points, cloud.normals, map);
+  cloud_scan(points, cloud.normals, map, summary);
   map.T_world_scanner = e.T_world_scan * Pose(Eigen::Matrix3d::Identity(), e.scanner);
+}
+
+/// Every scan of a PTX file, named by the file's stem (and its index when there are several).
+void load_ptx(const std::string& path, std::vector<ScanAo>& scans,
+              std::vector<ScanSummary>& summaries) {
+  std::vector<PtxScan> ptx = read_ptx(path);
+  const std::string stem = fs::path(path).stem().string();
+  for (std::size_t k = 0; k < ptx.size(); ++k) {
+    scans.emplace_back();
+    summaries.emplace_back();
+    RangeMap& map = scans.back().map;
+    map.name = ptx.size() == 1 ? stem : stem + "-" + std::to_string(k + 1);
+    summaries.back().source = path;
+    if (ptx[k].points.empty())
+      throw input_error(path + ": scan " + std::to_string(k + 1) + " has no point");
+    cloud_scan(ptx[k].points, {}, map, summaries.back());
+    map.T_world_scanner = ptx[k].T_world_scanner;
+  }
 }
 
 /// Every `every`-th frame of a recording folder, posed by `poses_path` or the folder's own
@@ -117,8 +143,10 @@ void load_recording(const std::string& folder, const ScansOptions& options,
   }
 }
 
+std::string extension(const std::string& path) { return fs::path(path).extension().string(); }
+
 bool is_manifest(const std::string& path) {
-  const std::string ext = fs::path(path).extension().string();
+  const std::string ext = extension(path);
   return ext == ".json" || ext == ".yaml" || ext == ".yml";
 }
 
@@ -177,16 +205,21 @@ ScansResult run_scans(const ScansOptions& options) {
   ScansResult result;
   std::vector<ScanAo> scans;
   for (const std::string& input : options.inputs) {
-    if (is_manifest(input)) {
-      for (const ScanEntry& e : read_scan_manifest(input)) {
+    if (is_manifest(input) || extension(input) == ".mlp") {
+      const std::vector<ScanEntry> entries =
+          is_manifest(input) ? read_scan_manifest(input) : read_meshlab_project(input);
+      for (const ScanEntry& e : entries) {
         scans.emplace_back();
         result.scans.emplace_back();
         load_manifest_scan(e, options.config, scans.back(), result.scans.back());
       }
+    } else if (extension(input) == ".ptx") {
+      load_ptx(input, scans, result.scans);
     } else if (fs::is_directory(input)) {
       load_recording(input, options, scans, result.scans, result.frames_without_pose);
     } else {
-      throw input_error(input + ": not a scan manifest (.json, .yaml) or a recording folder");
+      throw input_error(input + ": not a scan manifest (.json, .yaml), a MeshLab project (.mlp), "
+                                "a PTX file (.ptx) or a recording folder");
     }
   }
   if (scans.empty()) throw input_error("scans: the inputs hold no scan");

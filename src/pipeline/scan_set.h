@@ -13,8 +13,10 @@ namespace aoscan {
 
 /// What `aoscan scans` was asked to do.
 struct ScansOptions {
-  /// Scan manifests (`*.json`, `*.yaml`, `*.yml`; io/scan_manifest.h) and recording folders (TUM
-  /// layout: every `every`-th frame is a pinhole scan).
+  /// Scan manifests (`*.json`, `*.yaml`, `*.yml`; io/scan_manifest.h), MeshLab projects
+  /// (`*.mlp`), PTX files (`*.ptx`, every scan in them) and recording folders (TUM layout: every
+  /// `every`-th frame is a pinhole scan). Point clouds become the equirectangular map of Sec. 7
+  /// around their scanner.
   std::vector<std::string> inputs;
   std::string out_dir = "aoscan-out";
   int every = 10;

@@ -22,17 +22,25 @@ namespace {
 using testing::ScratchDir;
 using testing::write_text;
 
-/// A laser scan of the corner scene from `position`, written as a PLY cloud in a frame whose
-/// origin is 1 m below the scanner (so the manifest's scanner position matters).
-void write_laser_cloud(const std::string& path, const Eigen::Vector3d& position) {
+/// The points of a laser scan of the corner scene from `position`, in the scanner's frame.
+std::vector<Eigen::Vector3f> laser_points(const Eigen::Vector3d& position) {
   RangeMap map;
   render_scan(AnalyticScene::make("corner"), ScanCamera::make_equirectangular(120),
               Pose(Eigen::Matrix3d::Identity(), position), 0.3, 20.0, ScannerNoise{}, map);
-  TriangleMesh cloud;
+  std::vector<Eigen::Vector3f> points;
   for (int y = 0; y < map.camera.height; ++y)
     for (int x = 0; x < map.camera.width; ++x)
-      if (map.has_point(x, y))
-        cloud.vertices.push_back(map.points(x, y) + Eigen::Vector3f(0, 0, 1));
+      if (map.has_point(x, y)) points.push_back(map.points(x, y));
+  return points;
+}
+
+/// laser_points() written as a PLY cloud in a frame whose origin lies `below` metres under the
+/// scanner.
+void write_laser_cloud(const std::string& path, const Eigen::Vector3d& position,
+                       float below = 1.0f) {
+  TriangleMesh cloud;
+  for (const Eigen::Vector3f& p : laser_points(position))
+    cloud.vertices.push_back(p + Eigen::Vector3f(0, 0, below));
   write_ply(path, cloud);
 }
 
@@ -100,6 +108,50 @@ TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
   ASSERT_EQ(ssao.vertices.size(), all.vertices.size());
   EXPECT_EQ(ssao.vertices, all.vertices);
   EXPECT_NE(ssao.quality, all.quality);
+}
+
+TEST(ScanSet, PtxFilesAndMeshlabProjectsGiveTheSameScanSets) {
+  ScratchDir dir;
+  const std::vector<Eigen::Vector3d> positions = {{2.6, 1.2, 1.4}, {1.1, 2.7, 1.6}};
+  // One PTX file with both scans (the grid here is a plain list of the returned points: PTX
+  // points that did not return are written as 0 0 0 and skipped).
+  std::string ptx;
+  for (const Eigen::Vector3d& c : positions) {
+    const std::vector<Eigen::Vector3f> points = laser_points(c);
+    ptx += std::to_string(points.size() + 1) + "\n1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" +
+           "1 0 0 0\n0 1 0 0\n0 0 1 0\n" + std::to_string(c.x()) + " " + std::to_string(c.y()) +
+           " " + std::to_string(c.z()) + " 1\n0 0 0 0\n";
+    for (const Eigen::Vector3f& p : points)
+      ptx += std::to_string(p.x()) + " " + std::to_string(p.y()) + " " + std::to_string(p.z()) +
+             " 0.5\n";
+  }
+  write_text(dir.file("hall.ptx"), ptx);
+  ScansOptions options;
+  options.inputs = {dir.file("hall.ptx")};
+  options.out_dir = dir.file("ptx");
+  const ScansResult from_ptx = run_scans(options);
+  ASSERT_EQ(from_ptx.scans.size(), 2u);
+  EXPECT_EQ(from_ptx.scans[0].name, "hall-1");
+  EXPECT_TRUE(from_ptx.isolated_scans.empty());
+  EXPECT_GT(from_ptx.points_shared, from_ptx.points / 4);
+
+  // The same scans as MeshLab layers in their scanners' frames.
+  write_laser_cloud(dir.file("s1.ply"), positions[0], 0.0f);
+  write_laser_cloud(dir.file("s2.ply"), positions[1], 0.0f);
+  auto layer = [](const std::string& file, const Eigen::Vector3d& c) {
+    return "<MLMesh filename=\"" + file + "\"><MLMatrix44>1 0 0 " + std::to_string(c.x()) +
+           " 0 1 0 " + std::to_string(c.y()) + " 0 0 1 " + std::to_string(c.z()) +
+           " 0 0 0 1</MLMatrix44></MLMesh>";
+  };
+  write_text(dir.file("set.mlp"), "<MeshLabProject><MeshGroup>" + layer("s1.ply", positions[0]) +
+                                      layer("s2.ply", positions[1]) +
+                                      "</MeshGroup></MeshLabProject>");
+  options.inputs = {dir.file("set.mlp")};
+  options.out_dir = dir.file("mlp");
+  const ScansResult from_mlp = run_scans(options);
+  ASSERT_EQ(from_mlp.scans.size(), 2u);
+  EXPECT_EQ(from_mlp.points, from_ptx.points);
+  EXPECT_EQ(from_mlp.points_shared, from_ptx.points_shared);
 }
 
 TEST(ScanSet, EveryKthFrameOfARecordingIsAScanPosedByItsGroundTruth) {

@@ -1,0 +1,35 @@
+/// @file ptx.h
+/// @brief PTX, the ASCII exchange format of terrestrial laser scanners: one or more structured
+/// scans per file, each a header (grid size, scanner position and axes, registration matrix)
+/// followed by its grid of points in the scanner's frame.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/pose.h"
+
+namespace aoscan {
+
+/// One scan of a PTX file.
+struct PtxScan {
+  int columns = 0;
+  int rows = 0;
+  /// The registration: scanner frame to world (the header's 4 x 4 matrix, whose last row PTX
+  /// writes as the translation).
+  Pose T_world_scanner;
+  /// The points that returned (x y z not all zero), scanner frame, in file order.
+  std::vector<Eigen::Vector3f> points;
+  long long missing = 0;  ///< grid cells without a return (0 0 0)
+};
+
+/// Reads every scan of the PTX file at `path`. A point line holds x y z and an intensity, and
+/// optionally r g b (ignored). Throws input_error naming the file and line on a missing file, a
+/// bad header (grid size not positive, a registration that is not a finite rigid transform), a
+/// line that does not parse, or a file that ends inside a scan's grid.
+std::vector<PtxScan> read_ptx(const std::string& path);
+
+}  // namespace aoscan
