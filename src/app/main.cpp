@@ -64,12 +64,6 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
       ->needs(snapshot);
 }
 
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ' ';
-  return s;
-}
-
 int report(ExitCode code, const std::string& message) {
   std::fprintf(stderr, "aoscan: error: %s\n", one_line(message).c_str());
   return static_cast<int>(code);
