@@ -18,6 +18,7 @@
 #include "io/tum.h"
 #include "pipeline/session.h"
 #include "pipeline/view_products.h"
+#include "support/pipeline_reference.h"
 
 namespace aoscan {
 namespace {
@@ -103,12 +104,12 @@ TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   seen.vertices(7, 5) = Eigen::Vector3f(0.0f, 0.0f, 1e9f);  // outside the Morton range
   Image<float> fast, from_slots, reference;
   mvao_image(grid, seen, T_world_camera, fast);
-  mvao_image_reference(grid, seen, T_world_camera, reference);
+  test::mvao_image_reference(grid, seen, T_world_camera, reference);
   // The slots of the frame just integrated (upper half; the lower half had no weight and is
   // looked up): the same image for the maps that frame integrated.
   mvao_image(grid, maps, T_world_camera, from_slots, &slots);
   Image<float> reference_unchanged;
-  mvao_image_reference(grid, maps, T_world_camera, reference_unchanged);
+  test::mvao_image_reference(grid, maps, T_world_camera, reference_unchanged);
   int from_slot = 0;
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
