@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <numeric>
 
+#include <nlohmann/json.hpp>
+
 #include "core/percentile.h"
 
 namespace aoscan {
@@ -20,6 +22,13 @@ TimingSummary StageStats::summary() const {
   s.ms_p95 = nearest_rank(sorted, 0.95);
   s.ms_max = sorted.back();
   return s;
+}
+
+nlohmann::json TimingSummary::to_json(const std::string& key_prefix) const {
+  return {{key_prefix + "mean", ms_mean},
+          {key_prefix + "p50", ms_p50},
+          {key_prefix + "p95", ms_p95},
+          {key_prefix + "max", ms_max}};
 }
 
 }  // namespace aoscan
