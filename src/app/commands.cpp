@@ -13,23 +13,14 @@
 #include "core/log.h"
 #include "pipeline/config.h"
 #include "pipeline/live_recorder.h"
-#include "pipeline/session.h"
 
 namespace aoscan {
 
 ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested) {
-  SessionOptions options;
+  RunOptions options = args.run;
   options.config = load_config(args.config_file, args.sets);  // exit 2 before touching input
-  options.out_dir = args.out_dir;
-  options.max_frames = args.max_frames;
-  options.threads = args.threads.value_or(0);
-  options.realtime = args.realtime;
-  options.strict = args.strict;
   options.show_progress = !args.no_progress;
-  options.save_volume = args.save_volume;
   options.live_view = !args.headless;  // falls back to headless with one warning
-  options.snapshot_dir = args.snapshot_dir;
-  options.snapshot_every = args.snapshot_every;
 
   std::unique_ptr<Source> source = open_source(args.source);
   if (args.live && !source->live())

@@ -9,25 +9,20 @@
 #include <vector>
 
 #include "core/status.h"
+#include "pipeline/session.h"
 
 namespace aoscan {
 
-/// Options of `replay` and `scan`.
+/// The command line of `replay` and `scan`: the run's options, and what the command makes of
+/// them (the source to open, the configuration to load, the negated flags).
 struct RunArgs {
+  RunOptions run;  ///< filled by the options that map one to one
   std::string source;
-  std::string out_dir = "aoscan-out";
   std::string config_file;
   std::vector<std::string> sets;
-  std::optional<std::size_t> max_frames;
-  std::optional<int> threads;
-  bool headless = false;
-  bool realtime = false;
-  bool strict = false;
-  bool no_progress = false;
-  bool save_volume = false;         ///< --save-volume: also write OUT/volume.vdb
-  bool live = false;                ///< scan: a live camera is required
-  std::string snapshot_dir;         ///< --snapshot: CPU-composited PNGs of the views go here
-  std::size_t snapshot_every = 30;  ///< --snapshot-every: every N-th fused frame (and the last)
+  bool headless = false;     ///< --headless: no live view
+  bool no_progress = false;  ///< --no-progress: no progress line
+  bool live = false;         ///< scan: a live camera is required
 };
 
 struct RecordArgs {

@@ -33,41 +33,37 @@ void install_stop_handlers() {
 
 /// Options shared by replay and scan.
 void add_run_options(CLI::App& cmd, RunArgs& args) {
-  cmd.add_option("--out", args.out_dir, "folder for the outputs (created if missing)")
+  cmd.add_option("--out", args.run.out_dir, "folder for the outputs (created if missing)")
       ->capture_default_str();
   cmd.add_option("--config", args.config_file, "configuration file (YAML or JSON)")
       ->check(CLI::ExistingFile);
   cmd.add_option("--set", args.sets, "override one configuration key: KEY=VALUE (repeatable)")
       ->allow_extra_args(false);
-  cmd.add_option("--frames", args.max_frames, "process at most N frames")->check(CLI::PositiveNumber);
-  cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
+  cmd.add_option("--frames", args.run.chain.max_frames, "process at most N frames")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--threads", args.run.threads, "worker threads (default: all cores)")
       ->check(CLI::PositiveNumber);
   cmd.add_flag("--headless", args.headless,
                "never open a window or touch a display (default: the live view, when a display "
                "is available)");
-  cmd.add_flag("--realtime", args.realtime,
+  cmd.add_flag("--realtime", args.run.chain.realtime,
                "pace replay by the recorded timestamps, dropping frames like a live camera");
-  cmd.add_flag("--strict", args.strict, "an unreadable frame is an error (exit 3), not a skip");
+  cmd.add_flag("--strict", args.run.chain.strict,
+               "an unreadable frame is an error (exit 3), not a skip");
   cmd.add_flag("--no-progress", args.no_progress, "no progress line on stderr");
-  cmd.add_flag("--save-volume", args.save_volume,
+  cmd.add_flag("--save-volume", args.run.save_volume,
                "also write the TSDF to OUT/volume.vdb: OpenVDB float grids 'tsdf' (signed "
                "distance, m) and 'weight', voxel size fusion.voxel_size_m, trajectory.txt's world "
                "frame");
   CLI::Option* snapshot =
-      cmd.add_option("--snapshot", args.snapshot_dir,
+      cmd.add_option("--snapshot", args.run.snapshot_dir,
                      "write PNGs of the views (shaded, ssao, normals, depth, orbit) to DIR; "
                      "composited on the CPU, so also with --headless");
-  cmd.add_option("--snapshot-every", args.snapshot_every,
+  cmd.add_option("--snapshot-every", args.run.snapshot_every,
                  "with --snapshot: every N-th fused frame, and the last one")
       ->check(CLI::PositiveNumber)
       ->capture_default_str()
       ->needs(snapshot);
-}
-
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ' ';
-  return s;
 }
 
 int report(ExitCode code, const std::string& message) {

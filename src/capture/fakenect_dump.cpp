@@ -12,6 +12,7 @@
 
 #include "capture/kinect_disparity.h"
 #include "capture/output_file.h"
+#include "capture/read_status.h"
 
 namespace aoscan {
 
@@ -37,16 +38,14 @@ FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
 
   while (!max_frames || stats.frames_written < *max_frames) {
     if (stop_requested && stop_requested->load()) break;
-    const Status status = source.read(frame);
-    if (status.code() == Status::Code::kEndOfStream || status.code() == Status::Code::kCancelled)
-      break;
-    if (status.code() == Status::Code::kCorruptFrame) {
-      ++stats.frames_corrupt;
-      continue;
-    }
-    if (!status.is_ok()) {
+    Status stopped_by;
+    const ReadStep step =
+        handle_read_status(source.read(frame), ReadPolicy{}, stats.frames_corrupt, stopped_by);
+    if (step == ReadStep::kSkip) continue;
+    if (step == ReadStep::kStop) {
+      if (stopped_by.is_ok()) break;
       close_checked(index, index_path);
-      throw_for_status(status);
+      throw_for_status(stopped_by);
     }
     if (frame.depth.width() != kFakenectWidth || frame.depth.height() != kFakenectHeight) {
       close_checked(index, index_path);

@@ -19,11 +19,6 @@ struct FileCloser {
 };
 using OutputFile = std::unique_ptr<std::FILE, FileCloser>;
 
-/// Throws Error(kFailure) "PATH: cannot write: <errno text>".
-[[noreturn]] inline void throw_write_failed(const std::string& path) {
-  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno ? errno : EIO));
-}
-
 /// Opens `path` for writing; throws naming the file when it cannot.
 inline OutputFile open_output(const std::string& path, const char* mode = "wb") {
   OutputFile file(std::fopen(path.c_str(), mode));

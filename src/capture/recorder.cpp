@@ -12,6 +12,7 @@
 
 #include "capture/output_file.h"
 #include "capture/png_depth.h"
+#include "capture/read_status.h"
 #include "io/camera_json.h"
 #include "io/ply.h"
 #include "io/tum.h"
@@ -21,12 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// The source's name on one line, for the depth.txt header.
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
-  return s;
-}
+constexpr ReadPolicy kReadPolicy{/*strict=*/false, /*skip_warning=*/"skipping corrupt frame: "};
 
 }  // namespace
 
@@ -66,18 +62,10 @@ RecordStats record_source(Source& source, const std::string& dir,
 
   while (!max_frames || stats.frames_written < *max_frames) {
     if (stop_requested && stop_requested->load()) break;
-    const Status status = source.read(frame);
-    if (status.code() == Status::Code::kEndOfStream || status.code() == Status::Code::kCancelled)
-      break;
-    if (status.code() == Status::Code::kCorruptFrame) {
-      spdlog::warn("skipping corrupt frame: {}", status.message());
-      ++stats.frames_corrupt;
-      continue;
-    }
-    if (!status.is_ok()) {
-      stats.stopped_by = status;
-      break;
-    }
+    const ReadStep step = handle_read_status(source.read(frame), kReadPolicy, stats.frames_corrupt,
+                                             stats.stopped_by);
+    if (step == ReadStep::kStop) break;
+    if (step == ReadStep::kSkip) continue;
 
     // The recording holds one calibration: the first frame may set it, later ones must match.
     const bool consistent_size = frame.depth.width() == frame.intrinsics.width &&

@@ -3,6 +3,8 @@
 /// outcomes that cross threads. Both map onto the contract's exit codes.
 #pragma once
 
+#include <cerrno>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -32,6 +34,19 @@ inline Error usage_error(const std::string& message) { return Error(ExitCode::kU
 inline Error input_error(const std::string& message) { return Error(ExitCode::kBadInput, message); }
 inline Error device_error(const std::string& message) { return Error(ExitCode::kDevice, message); }
 
+/// `s` on one line: every line break ('\n', '\r') becomes a space. Error messages go to stderr as
+/// one line, also when they quote a library's multi-line text.
+inline std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  return s;
+}
+
+/// Throws Error(kFailure) "PATH: cannot write: <errno text>" (EIO's text when errno is not set).
+[[noreturn]] inline void throw_write_failed(const std::string& path) {
+  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno ? errno : EIO));
+}
+
 /// Outcome of a per-frame operation (a read, a stage step). Cheap to copy; never thrown.
 class Status {
  public:
@@ -41,7 +56,6 @@ class Status {
     kCorruptFrame,  ///< this frame is unusable; the stream goes on (counted skip)
     kBadInput,      ///< the source cannot go on (exit 3)
     kDeviceLost,    ///< the camera went away (exit 4)
-    kCancelled,     ///< stopped on request
     kInternal,      ///< a bug or an unexpected failure (exit 1)
   };
 
@@ -52,19 +66,17 @@ class Status {
   static Status corrupt_frame(std::string m) { return {Code::kCorruptFrame, std::move(m)}; }
   static Status bad_input(std::string m) { return {Code::kBadInput, std::move(m)}; }
   static Status device_lost(std::string m) { return {Code::kDeviceLost, std::move(m)}; }
-  static Status cancelled() { return {Code::kCancelled, "cancelled"}; }
   static Status internal(std::string m) { return {Code::kInternal, std::move(m)}; }
 
   bool is_ok() const { return code_ == Code::kOk; }
   Code code() const { return code_; }
   const std::string& message() const { return message_; }
 
-  /// Exit code for a status that ends the run (kOk, kEndOfStream and kCancelled end cleanly).
+  /// Exit code for a status that ends the run (kOk and kEndOfStream end cleanly).
   ExitCode exit_code() const {
     switch (code_) {
       case Code::kOk:
       case Code::kEndOfStream:
-      case Code::kCancelled:
         return ExitCode::kOk;
       case Code::kCorruptFrame:
       case Code::kBadInput:

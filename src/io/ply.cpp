@@ -42,10 +42,6 @@ unsigned char grey(float quality) {
   return static_cast<unsigned char>(std::lround(255.0 * static_cast<double>(quality)));
 }
 
-[[noreturn]] void write_failed(const std::string& path) {
-  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno));
-}
-
 // ---- reading ----------------------------------------------------------------------------------
 
 enum class Type { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
@@ -221,7 +217,7 @@ void write_ply(const std::string& path, const TriangleMesh& mesh) {
                           std::to_string(mesh.faces[f][k]) + " out of range");
 
   std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) write_failed(path);
+  if (!file) throw_write_failed(path);
   const std::string header = ply_header(n, mesh.faces.size());
   bool ok = std::fwrite(header.data(), 1, header.size(), file) == header.size();
 
@@ -251,7 +247,7 @@ void write_ply(const std::string& path, const TriangleMesh& mesh) {
   }
   flush();
   ok = std::ferror(file) == 0 && ok;
-  if (std::fclose(file) != 0 || !ok) write_failed(path);
+  if (std::fclose(file) != 0 || !ok) throw_write_failed(path);
 }
 
 namespace {

@@ -53,10 +53,6 @@ void for_each_data_line(const std::string& path, F&& per_line) {
   if (in.bad()) throw input_error(path + ": read error");
 }
 
-[[noreturn]] void write_failed(const std::string& path) {
-  throw Error(ExitCode::kFailure, path + ": cannot write: " + std::strerror(errno));
-}
-
 void write_header(std::FILE* file, const std::string& header) {
   if (header.empty()) return;
   std::istringstream lines(header);
@@ -99,12 +95,12 @@ std::vector<TumListEntry> read_tum_list(const std::string& path) {
 void write_tum_list(const std::string& path, const std::vector<TumListEntry>& entries,
                     const std::string& header) {
   std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) write_failed(path);
+  if (!file) throw_write_failed(path);
   write_header(file, header);
   for (const TumListEntry& e : entries)
     std::fprintf(file, "%.6f %s\n", e.timestamp_s, e.path.c_str());
   const bool failed = std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed) write_failed(path);
+  if (std::fclose(file) != 0 || failed) throw_write_failed(path);
 }
 
 std::vector<StampedPose> read_trajectory(const std::string& path) {
@@ -156,9 +152,9 @@ void write_trajectory(const std::string& path, const std::vector<StampedPose>& p
 
 TrajectoryWriter::TrajectoryWriter(const std::string& path, const std::string& header)
     : path_(path), file_(std::fopen(path.c_str(), "wb")) {
-  if (!file_) write_failed(path_);
+  if (!file_) throw_write_failed(path_);
   write_header(file_, header);
-  if (std::fflush(file_) != 0) write_failed(path_);
+  if (std::fflush(file_) != 0) throw_write_failed(path_);
 }
 
 TrajectoryWriter::~TrajectoryWriter() {
@@ -172,7 +168,7 @@ void TrajectoryWriter::write(const StampedPose& pose) {
   if (n < 0) throw Error(ExitCode::kFailure, path_ + ": pose does not fit a trajectory line");
   if (std::fwrite(line, 1, static_cast<std::size_t>(n), file_) != static_cast<std::size_t>(n) ||
       std::fflush(file_) != 0)
-    write_failed(path_);
+    throw_write_failed(path_);
 }
 
 void TrajectoryWriter::close() {
@@ -180,7 +176,7 @@ void TrajectoryWriter::close() {
   const bool failed = std::ferror(file_) != 0;
   const int rc = std::fclose(file_);
   file_ = nullptr;
-  if (rc != 0 || failed) write_failed(path_);
+  if (rc != 0 || failed) throw_write_failed(path_);
 }
 
 std::optional<Pose> associate(const std::vector<StampedPose>& poses, double t_s, double max_dt_s) {

@@ -81,11 +81,6 @@ void make_uuid_deterministic(const std::string& path) {
   if (!file.flush()) throw Error(ExitCode::kFailure, path + ": cannot write");
 }
 
-std::string one_line(std::string s) {
-  std::replace(s.begin(), s.end(), '\n', ' ');
-  return s;
-}
-
 }  // namespace
 
 VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume) {

@@ -2,10 +2,10 @@
 /// @brief Camera thread → BoundedQueue (drop-oldest, counted) → record_source() on the caller.
 #include "pipeline/live_recorder.h"
 
-#include <exception>
 #include <memory>
 #include <thread>
 
+#include "capture/read_status.h"
 #include "core/log.h"
 #include "pipeline/bounded_queue.h"
 #include "pipeline/frame_pool.h"
@@ -55,23 +55,11 @@ void camera_loop(Source& source, std::optional<std::size_t> max_frames,
   while (!stop_requested.load()) {
     if (max_frames && frames_read >= *max_frames) break;
     FramePtr frame = pool.acquire();
-    Status status;
-    try {
-      status = source.read(*frame);
-    } catch (const std::exception& e) {
-      status = Status::internal(std::string("reading ") + source.name() + ": " + e.what());
-    }
-    if (status.code() == Status::Code::kEndOfStream || status.code() == Status::Code::kCancelled)
-      break;
-    if (status.code() == Status::Code::kCorruptFrame) {
-      spdlog::warn("skipping corrupt frame: {}", status.message());
-      ++outcome.frames_corrupt;
-      continue;
-    }
-    if (!status.is_ok()) {
-      outcome.status = status;
-      break;
-    }
+    const ReadStep step =
+        handle_read_status(source.read(*frame), {/*strict=*/false, "skipping corrupt frame: "},
+                           outcome.frames_corrupt, outcome.status);
+    if (step == ReadStep::kStop) break;
+    if (step == ReadStep::kSkip) continue;
     ++frames_read;
     if (!queue.push(std::move(frame))) break;  // the writer gave up
   }

@@ -9,60 +9,33 @@
 #pragma once
 
 #include <atomic>
-#include <chrono>
 #include <cstddef>
 #include <functional>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "capture/source.h"
-#include "core/depth_frame.h"
-#include "core/image.h"
-#include "core/mesh.h"
 #include "core/status.h"
-#include "fusion/preprocess/preprocess.h"
-#include "fusion/reconstruction.h"
-#include "io/tum.h"
-#include "pipeline/config.h"
 #include "pipeline/stage_stats.h"
 
 namespace aoscan {
 
-/// Everything one frame accumulates on its way through the chain; recycled between frames.
-struct FrameWork {
-  DepthFrame raw;         ///< as read from the source
-  PreprocessedFrame pre;  ///< metres, outliers removed, filtered, tracking pyramid
-  FusionStep fusion;      ///< tracking status and pose
-  std::shared_ptr<const RaycastResult>
-      raycast;               ///< the model seen from this frame's pose, when tracked
-  PointMaps raw_maps;        ///< camera-frame maps of pre.depth_m (only with ao.input=raw)
-  Image<float> ssao;         ///< screen-space AO of this view, 1 = open (empty when not tracked)
-  Image<float> ssao_weight;  ///< per-pixel view weight w_d * w_n
-
-  /// Milliseconds this frame spent in each step: [0] = capture (read), [i] = the i-th StageDef,
-  /// filled as it passes (for the HUD; StageStats keep the run's statistics).
-  std::vector<double> stage_ms;
-  std::size_t frames_dropped_before = 0;  ///< live drops counted when this frame was queued
-  bool integration_paused = false;  ///< the track stage tracked this frame without integrating it
-  bool model_reset = false;         ///< the track stage started a new model with this frame
-  /// Only while a view consumer exists: AO from the MVAO grid at each raycast pixel's world point,
-  /// in [0, 1], NaN = unobserved cell or no surface (filled by the mvao stage after integrating).
-  Image<float> mvao;
-  /// The mvao stage built this frame's view products (mvao): the view stage shows only such frames.
-  bool view_products = false;
-  /// `s` (write outputs now): the surface extracted by the track stage after this frame (world
-  /// frame, no AO yet) and the trajectory so far; the mvao stage adds the AO and writes both.
-  std::shared_ptr<TriangleMesh> export_mesh;
-  std::shared_ptr<const std::vector<StampedPose>> export_trajectory;
-};
-
-/// A processing step of the chain. It runs on its own thread; `process` returns ok to pass the
-/// frame on, corrupt_frame to skip it (counted), anything else to stop the chain.
-struct StageDef {
+/// A processing step of the chain over frames of type `Frame`. It runs on its own thread;
+/// `process` returns ok to pass the frame on, corrupt_frame to skip it (counted), anything else to
+/// stop the chain.
+///
+/// The chain knows nothing of what a frame carries beyond what it fills itself: `Frame` has the
+/// members `DepthFrame raw` (read from the source), `std::vector<double> stage_ms` (milliseconds
+/// of each step: [0] = capture, [i] = the i-th stage) and `std::size_t frames_dropped_before`
+/// (live drops counted when the frame was queued). Frames are pooled and recycled; what the
+/// domain needs cleared before a slot is read into again is its `recycle` callback's job.
+template <typename Frame>
+struct ChainStage {
   std::string name;
-  std::function<Status(FrameWork&)> process;
+  std::function<Status(Frame&)> process;
   /// Live (live source or `--realtime`): the stage's input holds one frame, and a newer frame
   /// replaces a waiting one (counted in frames_dropped). For the stage that cannot keep up with
   /// the camera: frames are dropped in front of it rather than at the capture edge, so the faster
@@ -79,7 +52,6 @@ struct PipelineCounters {
   /// Per stage (in chain order): frames dropped at its input; only live inputs drop.
   std::vector<std::size_t> frames_dropped_at;
   std::size_t frames_corrupt = 0;    ///< unreadable frames skipped
-  std::size_t frames_tracking_lost = 0;
 };
 
 /// Progress as seen by the last stage.
@@ -106,7 +78,7 @@ struct PipelineResult {
   Status status;  ///< ok, or the first error that stopped the chain
   PipelineCounters counters;
   double wall_s = 0.0;             ///< first frame read to last frame through the chain
-  std::vector<StageStats> stages;  ///< "capture" first, then each StageDef in order
+  std::vector<StageStats> stages;  ///< "capture" first, then each stage in order
   /// Capture-to-pipeline latency of every frame the first stage took: from the frame's arrival
   /// (DepthFrame::arrived_at: a live camera's driver callback; for recordings the end of read(),
   /// with --realtime the paced delivery time) to the first stage taking it from the capture edge.
@@ -119,12 +91,18 @@ struct PipelineResult {
   /// CPU time of the capture thread (reading, decoding, pacing excluded as it sleeps) over the
   /// run's wall time, in percent of one core.
   double capture_cpu_percent = 0.0;
+
+  /// The counters, fps and timings as stats.json has them (top-level keys).
+  nlohmann::json to_json() const;
 };
 
 /// Runs `source` through `stages` until the source ends, `max_frames` are read, `stop_requested`
-/// becomes true (SIGINT/SIGTERM: frames in flight are finished), or a stage fails.
-PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
-                            const PipelineOptions& options,
-                            const std::atomic<bool>& stop_requested);
+/// becomes true (SIGINT/SIGTERM: frames in flight are finished), or a stage fails. `recycle`
+/// (may be empty) readies a pooled frame of an earlier read before the source fills it again.
+/// Defined in pipeline/pipeline_impl.h, which the code that picks `Frame` instantiates.
+template <typename Frame>
+PipelineResult run_chain(Source& source, const std::vector<ChainStage<Frame>>& stages,
+                         const PipelineOptions& options, const std::atomic<bool>& stop_requested,
+                         const std::function<void(Frame&)>& recycle);
 
 }  // namespace aoscan

@@ -4,16 +4,72 @@
 
 #include <filesystem>
 
+#include <nlohmann/json.hpp>
+
 #include "ao/mesh_ao.h"
 #include "ao/ssao.h"
 #include "core/log.h"
 #include "fusion/preprocess/bilateral.h"
 #include "fusion/preprocess/pyramid.h"
 #include "io/ply.h"
+#include "pipeline/pipeline_impl.h"
 #include "pipeline/view_products.h"
 #include "pipeline/volume_export.h"
 
 namespace aoscan {
+namespace {
+
+constexpr double kBytesPerMb = 1024.0 * 1024.0;
+
+/// What an `s` command left on a pooled frame must not reach the frame read into it next.
+void recycle_frame(FrameWork& frame) {
+  frame.export_mesh.reset();
+  frame.export_trajectory.reset();
+}
+
+}  // namespace
+
+template PipelineResult run_chain<FrameWork>(Source&, const std::vector<StageDef>&,
+                                             const PipelineOptions&, const std::atomic<bool>&,
+                                             const std::function<void(FrameWork&)>&);
+
+PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
+                            const PipelineOptions& options,
+                            const std::atomic<bool>& stop_requested) {
+  return run_chain<FrameWork>(source, stages, options, stop_requested, recycle_frame);
+}
+
+nlohmann::json MeshStats::to_json() const {
+  return {{"vertices", vertices},
+          {"faces", faces},
+          {"ao_unobserved_vertices", ao_unobserved_vertices}};
+}
+
+nlohmann::json GridStats::to_json() const {
+  return {{"cells", cells},
+          {"bricks", bricks},
+          {"memory_mb", memory_mb},
+          {"points_out_of_range", points_out_of_range}};
+}
+
+nlohmann::json TsdfStats::to_json() const {
+  return {{"blocks", blocks}, {"memory_mb", memory_mb}, {"capacity_reached", capacity_reached}};
+}
+
+nlohmann::json VolumeStats::to_json() const {
+  return {{"written", written},
+          {"bricks", bricks},
+          {"active_voxels", active_voxels},
+          {"bytes", bytes},
+          {"export_s", export_s}};
+}
+
+nlohmann::json ProcessingStats::to_json() const {
+  return {{"frames_tracking_lost", frames_tracking_lost},
+          {"ao_frames_skipped_live", ao_frames_skipped_live},
+          {"model_resets", model_resets},
+          {"outputs_written_on_request", outputs_written_on_request}};
+}
 
 Processing::Processing(const Config& config, std::string out_dir)
     : config_(config),
@@ -138,18 +194,36 @@ void Processing::write_requested_outputs(FrameWork& frame) {
   frame.export_trajectory.reset();
 }
 
-Processing::ExportStats Processing::write_outputs(const std::string& out_dir) const {
+ProcessingStats Processing::stats() const {
+  return {frames_tracking_lost_, ao_shedder_.skipped(), model_resets_.load(),
+          outputs_written_.load()};
+}
+
+GridStats Processing::grid_stats() const {
+  return {grid_.cell_count(), grid_.brick_count(),
+          static_cast<double>(grid_.memory_bytes()) / kBytesPerMb, grid_.points_out_of_range()};
+}
+
+TsdfStats Processing::tsdf_stats() const {
+  const TsdfVolume& volume = reconstruction_.volume();
+  return {static_cast<std::size_t>(volume.block_count()),
+          static_cast<double>(volume.memory_bytes()) / kBytesPerMb, volume.capacity_reached()};
+}
+
+Processing::ExportResult Processing::write_outputs(const std::string& out_dir) const {
   const std::filesystem::path dir(out_dir);
   write_trajectory((dir / "trajectory.txt").string(), trajectory_);
   auto mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh());
   const std::size_t unobserved = apply_grid_ao(grid_, config_.ao.mesh_cell_factor, *mesh);
   write_ply((dir / "mesh.ply").string(), *mesh);
-  return {mesh->vertices.size(), mesh->faces.size(), unobserved, mesh};
+  return {{mesh->vertices.size(), mesh->faces.size(), unobserved}, mesh};
 }
 
-VdbWriteStats Processing::write_volume(const std::string& out_dir) const {
-  return aoscan::write_volume((std::filesystem::path(out_dir) / "volume.vdb").string(),
-                              reconstruction_.volume(), &config_.fusion);
+VolumeStats Processing::write_volume(const std::string& out_dir) const {
+  const VdbWriteStats written =
+      aoscan::write_volume((std::filesystem::path(out_dir) / "volume.vdb").string(),
+                           reconstruction_.volume(), &config_.fusion);
+  return {true, written.bricks, written.active_voxels, written.file_bytes, 0.0};
 }
 
 }  // namespace aoscan

@@ -1,19 +1,25 @@
 /// @file processing.h
-/// @brief aoscan's processing stages and the state each one owns (one writer per structure):
-/// preprocess (metres, border outliers) → filter (bilateral, pyramid, vertex and normal maps) →
-/// track+integrate(+raycast) → ssao → mvao. Used by replay/scan sessions and by the
-/// benchmark.
+/// @brief aoscan's frame (FrameWork), its processing stages and the state each one owns (one
+/// writer per structure): preprocess (metres, border outliers) → filter (bilateral, pyramid,
+/// vertex and normal maps) → track+integrate(+raycast) → ssao → mvao; the chain over FrameWork
+/// and the stats the stages leave. Used by replay/scan sessions and by the benchmark.
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "ao/mvao_grid.h"
 #include "ao/ssao.h"
+#include "core/depth_frame.h"
+#include "core/image.h"
 #include "core/mesh.h"
+#include "fusion/preprocess/preprocess.h"
 #include "fusion/reconstruction.h"
 #include "io/tum.h"
 #include "io/vdb.h"
@@ -23,6 +29,87 @@
 #include "pipeline/pipeline.h"
 
 namespace aoscan {
+
+/// Everything one frame accumulates on its way through the chain; recycled between frames.
+struct FrameWork {
+  DepthFrame raw;         ///< as read from the source
+  PreprocessedFrame pre;  ///< metres, outliers removed, filtered, tracking pyramid
+  FusionStep fusion;      ///< tracking status and pose
+  std::shared_ptr<const RaycastResult>
+      raycast;               ///< the model seen from this frame's pose, when tracked
+  PointMaps raw_maps;        ///< camera-frame maps of pre.depth_m (only with ao.input=raw)
+  Image<float> ssao;         ///< screen-space AO of this view, 1 = open (empty when not tracked)
+  Image<float> ssao_weight;  ///< per-pixel view weight w_d * w_n
+
+  /// Milliseconds this frame spent in each step: [0] = capture (read), [i] = the i-th StageDef,
+  /// filled as it passes (for the HUD; StageStats keep the run's statistics).
+  std::vector<double> stage_ms;
+  std::size_t frames_dropped_before = 0;  ///< live drops counted when this frame was queued
+  bool integration_paused = false;  ///< the track stage tracked this frame without integrating it
+  bool model_reset = false;         ///< the track stage started a new model with this frame
+  /// Only while a view consumer exists: AO from the MVAO grid at each raycast pixel's world point,
+  /// in [0, 1], NaN = unobserved cell or no surface (filled by the mvao stage after integrating).
+  Image<float> mvao;
+  /// The mvao stage built this frame's view products (mvao): the view stage shows only such frames.
+  bool view_products = false;
+  /// `s` (write outputs now): the surface extracted by the track stage after this frame (world
+  /// frame, no AO yet) and the trajectory so far; the mvao stage adds the AO and writes both.
+  std::shared_ptr<TriangleMesh> export_mesh;
+  std::shared_ptr<const std::vector<StampedPose>> export_trajectory;
+};
+
+/// A stage of aoscan's chain.
+using StageDef = ChainStage<FrameWork>;
+
+/// The chain (pipeline/pipeline.h) over FrameWork: a recycled frame drops the outputs an `s`
+/// command left on it.
+PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
+                            const PipelineOptions& options,
+                            const std::atomic<bool>& stop_requested);
+
+/// The final mesh (stats.json "mesh").
+struct MeshStats {
+  std::size_t vertices = 0;
+  std::size_t faces = 0;
+  std::size_t ao_unobserved_vertices = 0;  ///< vertices that took the nearest observed cell's AO
+  nlohmann::json to_json() const;
+};
+
+/// The MVAO grid at the end of the run (stats.json "mvao_grid").
+struct GridStats {
+  std::size_t cells = 0;
+  std::size_t bricks = 0;  ///< bricks of 4^3 cells
+  double memory_mb = 0.0;
+  std::uint64_t points_out_of_range = 0;
+  nlohmann::json to_json() const;
+};
+
+/// The TSDF at the end of the run (stats.json "tsdf").
+struct TsdfStats {
+  std::size_t blocks = 0;
+  double memory_mb = 0.0;
+  bool capacity_reached = false;
+  nlohmann::json to_json() const;
+};
+
+/// volume.vdb, when --save-volume asked for it (stats.json "volume").
+struct VolumeStats {
+  bool written = false;
+  std::size_t bricks = 0;         ///< 8^3 bricks (OpenVDB leaves) with observed voxels
+  std::size_t active_voxels = 0;  ///< observed voxels
+  std::uintmax_t bytes = 0;       ///< the file's size
+  double export_s = 0.0;          ///< time to write it
+  nlohmann::json to_json() const;
+};
+
+/// What the stages counted (stats.json top-level keys).
+struct ProcessingStats {
+  std::size_t frames_tracking_lost = 0;
+  std::size_t ao_frames_skipped_live = 0;  ///< tracked frames without SSAO under live load
+  std::size_t model_resets = 0;            ///< `r` commands carried out
+  std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
+  nlohmann::json to_json() const;
+};
 
 /// Owns the reconstruction and what the stages collect; hands out the stage functions.
 class Processing {
@@ -67,18 +154,21 @@ class Processing {
   /// stopped; see AoLoadShedder).
   std::size_t ao_frames_skipped() const { return ao_shedder_.skipped(); }
 
+  /// The counts of the stages, the grid and the TSDF (read after the chain has stopped).
+  ProcessingStats stats() const;
+  GridStats grid_stats() const;
+  TsdfStats tsdf_stats() const;
+
   /// Writes trajectory.txt and mesh.ply into `out_dir` (read after the chain has stopped).
-  /// Returns the mesh statistics for stats.json.
-  struct ExportStats {
-    std::size_t mesh_vertices = 0;
-    std::size_t mesh_faces = 0;
-    std::size_t ao_unobserved_vertices = 0;  ///< vertices that took the nearest observed cell's AO
+  struct ExportResult {
+    MeshStats stats;
     std::shared_ptr<const TriangleMesh> mesh;  ///< the mesh written, with its AO
   };
-  ExportStats write_outputs(const std::string& out_dir) const;
+  ExportResult write_outputs(const std::string& out_dir) const;
   /// Writes the TSDF as `out_dir`/volume.vdb (see pipeline/volume_export.h; read after the chain
-  /// has stopped). Throws Error (exit code 1) naming the file when it cannot be written.
-  VdbWriteStats write_volume(const std::string& out_dir) const;
+  /// has stopped). Throws Error (exit code 1) naming the file when it cannot be written; the
+  /// result's export_s is left for the caller, who times the write.
+  VolumeStats write_volume(const std::string& out_dir) const;
 
  private:
   Status preprocess(FrameWork& frame) const;

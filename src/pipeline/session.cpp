@@ -182,83 +182,9 @@ class WindowThread {
   std::thread thread_;
 };
 
-void write_stats_json(const std::string& path, const SessionResult& r, int threads) {
-  nlohmann::json j;
-  const PipelineCounters& c = r.pipeline.counters;
-  j["frames_read"] = c.frames_read;
-  j["frames_processed"] = c.frames_processed;
-  j["frames_dropped"] = c.frames_dropped;
-  // Where the live drops happened: at the input of each stage (the capture edge is the first's).
-  nlohmann::json dropped_at = nlohmann::json::object();
-  for (std::size_t i = 0; i < c.frames_dropped_at.size() && i + 1 < r.pipeline.stages.size(); ++i)
-    dropped_at[r.pipeline.stages[i + 1].name()] = c.frames_dropped_at[i];
-  j["frames_dropped_at"] = dropped_at;
-  j["frames_corrupt"] = c.frames_corrupt;
-  j["frames_tracking_lost"] = c.frames_tracking_lost;
-  j["ao_frames_skipped_live"] = r.ao_frames_skipped_live;
-  j["wall_s"] = r.pipeline.wall_s;
-  j["fps"] =
-      r.pipeline.wall_s > 0 ? static_cast<double>(c.frames_processed) / r.pipeline.wall_s : 0.0;
-  j["export_s"] = r.export_s;
-  j["threads"] = threads;
-  j["peak_rss_mb"] = peak_rss_mb();
-  j["host_steal_percent"] =
-      r.host_steal_percent ? nlohmann::json(*r.host_steal_percent) : nlohmann::json(nullptr);
-  nlohmann::json stages = nlohmann::json::object();
-  for (const StageStats& s : r.pipeline.stages) {
-    const TimingSummary t = s.summary();
-    stages[s.name()] = {
-        {"ms_mean", t.ms_mean}, {"ms_p50", t.ms_p50}, {"ms_p95", t.ms_p95}, {"ms_max", t.ms_max}};
-  }
-  j["stages"] = stages;
-  const TimingSummary latency = r.pipeline.capture_latency.summary();
-  j["capture_latency_ms"] = {{"mean", latency.ms_mean},
-                             {"p50", latency.ms_p50},
-                             {"p95", latency.ms_p95},
-                             {"max", latency.ms_max}};
-  const TimingSummary end_to_end = r.pipeline.end_to_end_latency.summary();
-  j["end_to_end_latency_ms"] = {{"mean", end_to_end.ms_mean},
-                                {"p50", end_to_end.ms_p50},
-                                {"p95", end_to_end.ms_p95},
-                                {"max", end_to_end.ms_max}};
-  j["capture_cpu_percent"] = r.pipeline.capture_cpu_percent;
-  j["mesh"] = {{"vertices", r.mesh_vertices},
-               {"faces", r.mesh_faces},
-               {"ao_unobserved_vertices", r.ao_unobserved_vertices}};
-  j["mvao_grid"] = {{"cells", r.grid_cells},
-                    {"bricks", r.grid_bricks},
-                    {"memory_mb", r.grid_memory_mb},
-                    {"points_out_of_range", r.grid_points_out_of_range}};
-  j["tsdf"] = {{"blocks", r.tsdf_blocks},
-               {"memory_mb", r.tsdf_memory_mb},
-               {"capacity_reached", r.tsdf_capacity_reached}};
-  if (r.volume_requested)
-    j["volume"] = {{"written", r.volume_written},
-                   {"bricks", r.volume_bricks},
-                   {"active_voxels", r.volume_active_voxels},
-                   {"bytes", r.volume_bytes},
-                   {"export_s", r.volume_export_s}};
-  j["snapshot_files"] = r.snapshot_files;
-  j["model_resets"] = r.model_resets;
-  j["outputs_written_on_request"] = r.outputs_written_on_request;
-  j["quit_by_user"] = r.quit_by_user;
-  j["live_view"] = r.live_view_lost ? "display_lost" : r.live_view_shown ? "shown" : "none";
-  j["status"] = r.exit_code == ExitCode::kOk ? "ok" : r.error;
-  std::ofstream out(path);
-  out << j.dump(2) << "\n";
-  if (!out) throw Error(ExitCode::kFailure, path + ": cannot write");
-}
-
-}  // namespace
-
-double peak_rss_mb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
-}
-
-SessionResult run_session(Source& source, const SessionOptions& options,
-                          const std::atomic<bool>& stop_requested) {
+/// Before the run: `out_dir` exists (created) and, with save_volume, volume.vdb can be written in
+/// it. Throws usage_error otherwise.
+void prepare_output(const RunOptions& options) {
   std::error_code ec;
   std::filesystem::create_directories(options.out_dir, ec);
   if (ec || !std::filesystem::is_directory(options.out_dir))
@@ -271,50 +197,52 @@ SessionResult run_session(Source& source, const SessionOptions& options,
                         std::strerror(errno));
     if (!existed) std::filesystem::remove(vdb, ec);  // a check only: no empty file left behind
   }
+}
 
-  const int threads = options.threads > 0
-                          ? options.threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  tbb::global_control thread_budget(tbb::global_control::max_allowed_parallelism,
-                                    static_cast<std::size_t>(threads));
+/// The chain of one run: processing's stages, and the view stage when something consumes its
+/// frames (a window or snapshots).
+struct ChainSetup {
+  std::vector<StageDef> stages;
+  std::unique_ptr<ViewStage> view;
+};
 
-  PipelineOptions popts;
-  popts.max_frames = options.max_frames;
-  popts.realtime = options.realtime;
-  popts.strict = options.strict;
+ChainSetup build_stages(const RunOptions& options, Processing& processing) {
+  ChainSetup chain{processing.stages(), nullptr};
+  if (!options.live_view && options.snapshot_dir.empty()) return chain;
+  ViewStageOptions vopts;
+  vopts.stage_names.push_back("capture");
+  for (const StageDef& stage : chain.stages) vopts.stage_names.push_back(stage.name);
+  vopts.publish = options.live_view;
+  if (!options.snapshot_dir.empty()) {
+    SnapshotOptions snapshots;
+    snapshots.dir = options.snapshot_dir;
+    snapshots.every_n = options.snapshot_every;
+    vopts.snapshots = snapshots;
+  }
+  chain.view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
+  processing.set_view_products(true);
+  ViewStage* stage = chain.view.get();
+  // With the window alone, view products (the MVAO image, a grid lookup per raycast pixel, and
+  // the view frame) are built only once the window has taken the last one: it draws on CPU
+  // time fusion leaves, and products it would never show would take that time from fusion.
+  // Snapshots need every frame's.
+  if (options.snapshot_dir.empty())
+    processing.set_view_demand([stage](std::uint64_t built) { return stage->caught_up(built); });
+  chain.stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
+  return chain;
+}
+
+/// Runs the chain with the user's commands applied and, with live_view, the window open; fills
+/// result.pipeline, .processing and the session's window and quit entries. Returns true when
+/// the chain was asked to stop (signal or quit).
+bool run_with_controls(Source& source, const RunOptions& options, Processing& processing,
+                       const ChainSetup& chain, const std::atomic<bool>& stop_requested,
+                       SessionResult& result) {
+  PipelineOptions popts = options.chain;
   popts.queue_capacity = static_cast<std::size_t>(options.config.pipeline.queue_capacity);
   ProgressLine progress;
   if (options.show_progress && isatty(STDERR_FILENO))
     popts.on_progress = [&progress](const Progress& p) { progress.update(p); };
-
-  SessionResult result;
-  Processing processing(options.config, options.out_dir);
-  std::vector<StageDef> stages = processing.stages();
-
-  // The view stage exists only when something consumes its frames.
-  std::unique_ptr<ViewStage> view;
-  if (options.live_view || !options.snapshot_dir.empty()) {
-    ViewStageOptions vopts;
-    vopts.stage_names.push_back("capture");
-    for (const StageDef& stage : stages) vopts.stage_names.push_back(stage.name);
-    vopts.publish = options.live_view;
-    if (!options.snapshot_dir.empty()) {
-      SnapshotOptions snapshots;
-      snapshots.dir = options.snapshot_dir;
-      snapshots.every_n = options.snapshot_every;
-      vopts.snapshots = snapshots;
-    }
-    view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
-    processing.set_view_products(true);
-    ViewStage* stage = view.get();
-    // With the window alone, view products (the MVAO image, a grid lookup per raycast pixel, and
-    // the view frame) are built only once the window has taken the last one: it draws on CPU
-    // time fusion leaves, and products it would never show would take that time from fusion.
-    // Snapshots need every frame's.
-    if (options.snapshot_dir.empty())
-      processing.set_view_demand([stage](std::uint64_t built) { return stage->caught_up(built); });
-    stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});
-  }
 
   ViewCommandQueue own_commands;
   ViewCommandQueue& commands = options.commands ? *options.commands : own_commands;
@@ -324,99 +252,150 @@ SessionResult run_session(Source& source, const SessionOptions& options,
   std::unique_ptr<WindowThread> window;
   if (options.live_view) {
     const bool snapshots = !options.snapshot_dir.empty();
-    ViewStage* stage = view.get();
+    ViewStage* stage = chain.view.get();
     window = std::make_unique<WindowThread>(
-        *view, commands, "aoscan: " + source.name(), [stage, snapshots, &processing] {
+        *chain.view, commands, "aoscan: " + source.name(), [stage, snapshots, &processing] {
           stage->set_publish(false);  // nothing shows the frames: stop building them for it
           if (!snapshots) processing.set_view_products(false);
         });
   }
   pump.start();
   const std::optional<HostCpuTimes> host_before = read_host_cpu_times();
-  result.pipeline = run_pipeline(source, stages, popts, chain_stop);
-  result.host_steal_percent = steal_percent(host_before, read_host_cpu_times());
+  result.pipeline = run_pipeline(source, chain.stages, popts, chain_stop);
+  result.session.host_steal_percent = steal_percent(host_before, read_host_cpu_times());
   pump.stop();
   if (window) {
     window->stop();
-    result.live_view_shown = window->shown();
-    result.live_view_lost = window->display_lost();
+    result.session.live_view_shown = window->shown();
+    result.session.live_view_lost = window->display_lost();
   }
-  result.pipeline.counters.frames_tracking_lost = processing.frames_tracking_lost();
-  result.ao_frames_skipped_live = processing.ao_frames_skipped();
-  if (result.ao_frames_skipped_live > 0)
+  result.processing = processing.stats();
+  if (result.processing.ao_frames_skipped_live > 0)
     spdlog::info(
         "SSAO skipped on {} tracked frames to keep up with the camera "
         "(ao.live_max_interval)",
-        result.ao_frames_skipped_live);
-  result.model_resets = processing.model_resets();
-  result.outputs_written_on_request = processing.outputs_written_on_request();
-  result.quit_by_user = pump.quit();
+        result.processing.ao_frames_skipped_live);
+  result.session.quit_by_user = pump.quit();
   progress.finish();
+  return chain_stop.load();
+}
 
+/// The run's exit code and error: the chain's, or bad input when no frame was usable (and the
+/// run was not stopped before one came).
+void set_outcome(const Source& source, bool stopped, SessionResult& result) {
   const Status& status = result.pipeline.status;
   result.exit_code = status.exit_code();
   if (result.exit_code != ExitCode::kOk) {
     result.error = status.message();
-  } else if (result.pipeline.counters.frames_processed == 0 && !chain_stop.load()) {
+  } else if (result.pipeline.counters.frames_processed == 0 && !stopped) {
     result.exit_code = ExitCode::kBadInput;
     result.error = source.name() + ": no usable frame (" +
                    std::to_string(result.pipeline.counters.frames_corrupt) + " unreadable)";
   }
+}
 
+/// Writes trajectory.txt, mesh.ply, volume.vdb (save_volume) and the last snapshots; fills the
+/// mesh, volume, grid, TSDF and export entries of `result`. A volume.vdb that cannot be written
+/// becomes the run's error when it had none.
+void export_outputs(const RunOptions& options, const Processing& processing, ViewStage* view,
+                    SessionResult& result) {
   const auto export_start = Clock::now();
-  const Processing::ExportStats exported = processing.write_outputs(options.out_dir);
-  result.mesh_vertices = exported.mesh_vertices;
-  result.mesh_faces = exported.mesh_faces;
-  result.ao_unobserved_vertices = exported.ao_unobserved_vertices;
-  result.volume_requested = options.save_volume;
+  const Processing::ExportResult exported = processing.write_outputs(options.out_dir);
+  result.mesh = exported.stats;
   if (options.save_volume) {
     const auto volume_start = Clock::now();
     try {
-      const VdbWriteStats written = processing.write_volume(options.out_dir);
-      result.volume_written = true;
-      result.volume_bricks = written.bricks;
-      result.volume_active_voxels = written.active_voxels;
-      result.volume_bytes = written.file_bytes;
+      result.volume = processing.write_volume(options.out_dir);
     } catch (const Error& e) {  // mesh.ply and trajectory.txt are out: still write stats.json
+      result.volume = VolumeStats{};
       if (result.exit_code == ExitCode::kOk) {
         result.exit_code = e.code();
         result.error = e.what();
       }
     }
-    result.volume_export_s = std::chrono::duration<double>(Clock::now() - volume_start).count();
+    result.volume->export_s = std::chrono::duration<double>(Clock::now() - volume_start).count();
   }
-  result.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
-  result.grid_cells = processing.grid().cell_count();
-  result.grid_bricks = processing.grid().brick_count();
-  result.grid_memory_mb = static_cast<double>(processing.grid().memory_bytes()) / (1024.0 * 1024.0);
-  result.grid_points_out_of_range = processing.grid().points_out_of_range();
-  if (result.grid_points_out_of_range > 0)
+  result.session.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
+  result.grid = processing.grid_stats();
+  if (result.grid.points_out_of_range > 0)
     spdlog::warn("{} points lay outside the MVAO grid's range and got no AO",
-                 result.grid_points_out_of_range);
-  const TsdfVolume& volume = processing.reconstruction().volume();
-  result.tsdf_blocks = static_cast<std::size_t>(volume.block_count());
-  result.tsdf_memory_mb = static_cast<double>(volume.memory_bytes()) / (1024.0 * 1024.0);
-  result.tsdf_capacity_reached = volume.capacity_reached();
+                 result.grid.points_out_of_range);
+  result.tsdf = processing.tsdf_stats();
   if (view) {
     view->finish(exported.mesh);  // the last set of snapshots shows the final mesh in orbit
-    result.snapshot_files = view->snapshot_files();
+    result.session.snapshot_files = view->snapshot_files();
   }
-  if (result.tsdf_capacity_reached)
+  if (result.tsdf.capacity_reached)
     spdlog::warn(
         "the TSDF reached its capacity of {} blocks (fusion.max_blocks): surface beyond it "
         "was not fused",
-        volume.max_blocks());
-  write_stats_json((std::filesystem::path(options.out_dir) / "stats.json").string(), result,
-                   threads);
+        processing.reconstruction().volume().max_blocks());
+}
+
+void write_stats_json(const std::string& path, const SessionResult& result) {
+  std::ofstream out(path);
+  out << result.to_json().dump(2) << "\n";
+  if (!out) throw Error(ExitCode::kFailure, path + ": cannot write");
+}
+
+}  // namespace
+
+double peak_rss_mb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+nlohmann::json SessionStats::to_json() const {
+  return {{"threads", threads},
+          {"export_s", export_s},
+          {"peak_rss_mb", peak_rss_mb()},
+          {"host_steal_percent",
+           host_steal_percent ? nlohmann::json(*host_steal_percent) : nlohmann::json(nullptr)},
+          {"snapshot_files", snapshot_files},
+          {"quit_by_user", quit_by_user},
+          {"live_view", live_view_lost ? "display_lost" : live_view_shown ? "shown" : "none"}};
+}
+
+nlohmann::json SessionResult::to_json() const {
+  nlohmann::json j = pipeline.to_json();
+  j.update(processing.to_json());
+  j.update(session.to_json());
+  j["mesh"] = mesh.to_json();
+  j["mvao_grid"] = grid.to_json();
+  j["tsdf"] = tsdf.to_json();
+  if (volume) j["volume"] = volume->to_json();
+  j["status"] = exit_code == ExitCode::kOk ? "ok" : error;
+  return j;
+}
+
+SessionResult run_session(Source& source, const RunOptions& options,
+                          const std::atomic<bool>& stop_requested) {
+  prepare_output(options);
+  SessionResult result;
+  result.session.threads =
+      options.threads > 0 ? options.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  tbb::global_control thread_budget(tbb::global_control::max_allowed_parallelism,
+                                    static_cast<std::size_t>(result.session.threads));
+
+  Processing processing(options.config, options.out_dir);
+  const ChainSetup chain = build_stages(options, processing);
+  const bool stopped =
+      run_with_controls(source, options, processing, chain, stop_requested, result);
+  set_outcome(source, stopped, result);
+  export_outputs(options, processing, chain.view.get(), result);
+  write_stats_json((std::filesystem::path(options.out_dir) / "stats.json").string(), result);
   spdlog::info("{} frames processed in {:.2f} s", result.pipeline.counters.frames_processed,
                result.pipeline.wall_s);
   // Above this share of stolen CPU time the run's speed says more about the host than about it.
   constexpr double kNotableStealPercent = 5.0;
-  if (result.host_steal_percent && *result.host_steal_percent > kNotableStealPercent)
+  if (result.session.host_steal_percent &&
+      *result.session.host_steal_percent > kNotableStealPercent)
     spdlog::info(
         "the hypervisor took {:.0f} % of this machine's CPU time during the run: "
         "the timings reflect a busy host",
-        *result.host_steal_percent);
+        *result.session.host_steal_percent);
   return result;
 }
 

@@ -7,20 +7,25 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "capture/source.h"
 #include "pipeline/config.h"
 #include "pipeline/pipeline.h"
+#include "pipeline/processing.h"
 #include "render/view_commands.h"
 
 namespace aoscan {
 
-struct SessionOptions {
+/// The options of one run (`replay`, `scan`), filled by the command line. The session reads its
+/// own parts and hands `chain` to the stage chain.
+struct RunOptions {
   Config config;
   std::string out_dir = "aoscan-out";
-  std::optional<std::size_t> max_frames;
+  /// Frames, pacing and corrupt frames (max_frames, realtime, strict). The session sets its
+  /// queue_capacity (pipeline.queue_capacity of `config`) and on_progress.
+  PipelineOptions chain;
   int threads = 0;  ///< worker threads for data-parallel kernels; 0 = all cores
-  bool realtime = false;
-  bool strict = false;
   bool show_progress = false;  ///< a progress line on stderr (when it is a terminal)
   /// Also write the TSDF as out_dir/volume.vdb (OpenVDB float grids `tsdf` and `weight`). Checked
   /// before the run: an out_dir where volume.vdb cannot be created is a usage error.
@@ -37,37 +42,34 @@ struct SessionOptions {
   ViewCommandQueue* commands = nullptr;
 };
 
+/// What the session itself measured and saw (stats.json top-level keys).
+struct SessionStats {
+  int threads = 0;       ///< the thread budget of the run
+  double export_s = 0.0;  ///< writing the outputs (volume.vdb included)
+  /// Share of the machine's CPU time the hypervisor took while the chain ran (core/host_cpu.h);
+  /// nothing where /proc/stat cannot tell.
+  std::optional<double> host_steal_percent;
+  std::size_t snapshot_files = 0;  ///< PNGs written by --snapshot
+  bool quit_by_user = false;       ///< `q`, Esc or the window closed
+  bool live_view_shown = false;    ///< a window was open during the run
+  bool live_view_lost = false;     ///< the display went away mid-run; the run went on headless
+  /// Its stats.json entries, with "peak_rss_mb": the peak RSS so far (read when called).
+  nlohmann::json to_json() const;
+};
+
 struct SessionResult {
   ExitCode exit_code = ExitCode::kOk;
   std::string error;  ///< one line when exit_code != kOk
   PipelineResult pipeline;
-  double export_s = 0.0;
-  std::size_t mesh_vertices = 0;
-  std::size_t mesh_faces = 0;
-  std::size_t ao_unobserved_vertices = 0;
-  std::size_t ao_frames_skipped_live = 0;  ///< tracked frames without SSAO under live load
-  /// Share of the machine's CPU time the hypervisor took while the chain ran (core/host_cpu.h);
-  /// nothing where /proc/stat cannot tell.
-  std::optional<double> host_steal_percent;
-  std::size_t grid_cells = 0;
-  std::uint64_t grid_points_out_of_range = 0;
-  std::size_t grid_bricks = 0;  ///< the MVAO grid's bricks of 4^3 cells
-  double grid_memory_mb = 0.0;
-  std::size_t tsdf_blocks = 0;
-  double tsdf_memory_mb = 0.0;
-  bool tsdf_capacity_reached = false;
-  bool volume_requested = false;         ///< --save-volume was given
-  bool volume_written = false;           ///< --save-volume: volume.vdb was written
-  std::size_t volume_bricks = 0;         ///< its 8^3 bricks (OpenVDB leaves) with observed voxels
-  std::size_t volume_active_voxels = 0;  ///< its observed voxels
-  std::uintmax_t volume_bytes = 0;       ///< its size
-  double volume_export_s = 0.0;          ///< time to write it (also part of export_s)
-  std::size_t snapshot_files = 0;        ///< PNGs written by --snapshot
-  std::size_t model_resets = 0;          ///< `r` commands carried out
-  std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
-  bool quit_by_user = false;                   ///< `q`, Esc or the window closed
-  bool live_view_shown = false;                ///< a window was open during the run
-  bool live_view_lost = false;  ///< the display went away mid-run; the run went on headless
+  ProcessingStats processing;
+  MeshStats mesh;
+  GridStats grid;
+  TsdfStats tsdf;
+  std::optional<VolumeStats> volume;  ///< with --save-volume
+  SessionStats session;
+
+  /// stats.json: every part's entries, and "status".
+  nlohmann::json to_json() const;
 };
 
 /// Runs `source` through the chain (plus a "view" stage when a window or snapshots are wanted),
@@ -76,7 +78,7 @@ struct SessionResult {
 /// save_volume, volume.vdb is written after mesh.ply; when that fails the run ends with that
 /// error (exit code 1) but stats.json is still written. Throws Error only when the output or
 /// snapshot folder (or, with save_volume, volume.vdb in it) cannot be created.
-SessionResult run_session(Source& source, const SessionOptions& options,
+SessionResult run_session(Source& source, const RunOptions& options,
                           const std::atomic<bool>& stop_requested);
 
 /// Peak resident set size of this process so far (MB).

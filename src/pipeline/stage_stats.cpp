@@ -3,8 +3,11 @@
 #include "pipeline/stage_stats.h"
 
 #include <algorithm>
-#include <cmath>
 #include <numeric>
+
+#include <nlohmann/json.hpp>
+
+#include "core/percentile.h"
 
 namespace aoscan {
 
@@ -14,15 +17,18 @@ TimingSummary StageStats::summary() const {
   if (ms_.empty()) return s;
   std::vector<double> sorted = ms_;
   std::sort(sorted.begin(), sorted.end());
-  const auto rank = [&](double p) {
-    const auto r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(sorted.size())));
-    return sorted[std::min(sorted.size(), std::max<std::size_t>(r, 1)) - 1];
-  };
   s.ms_mean = std::accumulate(sorted.begin(), sorted.end(), 0.0) / static_cast<double>(sorted.size());
-  s.ms_p50 = rank(0.50);
-  s.ms_p95 = rank(0.95);
+  s.ms_p50 = nearest_rank(sorted, 0.50);
+  s.ms_p95 = nearest_rank(sorted, 0.95);
   s.ms_max = sorted.back();
   return s;
+}
+
+nlohmann::json TimingSummary::to_json(const std::string& key_prefix) const {
+  return {{key_prefix + "mean", ms_mean},
+          {key_prefix + "p50", ms_p50},
+          {key_prefix + "p95", ms_p95},
+          {key_prefix + "max", ms_max}};
 }
 
 }  // namespace aoscan

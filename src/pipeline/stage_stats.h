@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 namespace aoscan {
 
 /// Summary of one stage's per-frame times (milliseconds).
@@ -15,6 +17,9 @@ struct TimingSummary {
   double ms_p95 = 0.0;
   double ms_max = 0.0;
   std::size_t count = 0;
+
+  /// {PREFIX + "mean", PREFIX + "p50", PREFIX + "p95", PREFIX + "max"} (stats.json).
+  nlohmann::json to_json(const std::string& key_prefix) const;
 };
 
 /// Times of one stage. Written by that stage's thread only; read after the thread has joined.

@@ -19,15 +19,13 @@ namespace aoscan {
 /// AO of the MVAO grid cell holding each pixel's world point T_world_camera * maps.vertices(x, y)
 /// (metres), in [0, 1]; NaN where the pixel has no surface (zero vertex) or its cell was never
 /// observed. `out` is resized to the maps' size (its buffer reused). Read-only on `grid`: call it
-/// on the grid's writer thread (the mvao stage). Parallel over rows; equal to mvao_image_reference.
+/// on the grid's writer thread (the mvao stage). Parallel over rows; equal to the plain serial
+/// lookup of every pixel.
 /// `slots` (optional): what MvaoGrid::integrate() just returned for these very maps and pose;
 /// its pixels read their cell from it without a table lookup (the cells are still in the cache),
 /// the others (not integrated: no SSAO weight) look theirs up.
 void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
                 Image<float>& out, const Image<std::uint32_t>* slots = nullptr);
-/// The plain serial version of mvao_image (the reference of the test).
-void mvao_image_reference(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
-                          Image<float>& out);
 
 struct SurfaceCloudOptions {
   double voxel_m = 0.01;            ///< one point per voxel of this side (metres)

@@ -17,7 +17,7 @@
 #include "core/status.h"
 #include "pipeline/frame_pool.h"
 #include "pipeline/mailbox.h"
-#include "pipeline/pipeline.h"
+#include "pipeline/processing.h"
 #include "pipeline/view_products.h"
 #include "render/snapshot.h"
 #include "render/view_frame.h"

@@ -63,7 +63,7 @@ struct RunFiles {
 
 RunFiles run(const std::string& name, std::vector<DepthFrame> list, const Config& config = {}) {
   ListSource source(std::move(list));
-  SessionOptions options;
+  RunOptions options;
   options.config = config;
   options.out_dir = (fs::path(::testing::TempDir()) / ("aoscan_bad_input_" + name)).string();
   fs::remove_all(options.out_dir);

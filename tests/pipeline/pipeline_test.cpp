@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "fake_source.h"
+#include "pipeline/processing.h"
 
 namespace aoscan {
 namespace {

@@ -22,7 +22,7 @@ nlohmann::json read_json(const fs::path& p) {
 TEST(Session, WritesStatsJsonWithTheContractKeys) {
   testing::FakeSource source(25);
   source.corrupt_ = {4};
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = (fs::path(::testing::TempDir()) / "session_stats").string();
   options.threads = 1;
   std::atomic<bool> stop{false};
@@ -60,7 +60,7 @@ TEST(Session, WritesStatsJsonWithTheContractKeys) {
 TEST(Session, DeviceLossStillWritesOutputsAndExitsFour) {
   testing::FakeSource source(30);
   source.fail_at_ = 12;
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = (fs::path(::testing::TempDir()) / "session_unplug").string();
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(source, options, stop);
@@ -73,7 +73,7 @@ TEST(Session, DeviceLossStillWritesOutputsAndExitsFour) {
 TEST(Session, NothingUsableIsBadInput) {
   testing::FakeSource source(3);
   source.corrupt_ = {0, 1, 2};
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = (fs::path(::testing::TempDir()) / "session_empty").string();
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(source, options, stop);
@@ -83,7 +83,7 @@ TEST(Session, NothingUsableIsBadInput) {
 
 TEST(Session, UncreatableOutputFolderIsAUsageError) {
   testing::FakeSource source(3);
-  SessionOptions options;
+  RunOptions options;
   const fs::path file = fs::path(::testing::TempDir()) / "session_file";
   std::ofstream(file) << "x";
   options.out_dir = (file / "sub").string();

@@ -18,6 +18,7 @@
 #include "io/tum.h"
 #include "pipeline/session.h"
 #include "pipeline/view_products.h"
+#include "support/pipeline_reference.h"
 
 namespace aoscan {
 namespace {
@@ -103,12 +104,12 @@ TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   seen.vertices(7, 5) = Eigen::Vector3f(0.0f, 0.0f, 1e9f);  // outside the Morton range
   Image<float> fast, from_slots, reference;
   mvao_image(grid, seen, T_world_camera, fast);
-  mvao_image_reference(grid, seen, T_world_camera, reference);
+  test::mvao_image_reference(grid, seen, T_world_camera, reference);
   // The slots of the frame just integrated (upper half; the lower half had no weight and is
   // looked up): the same image for the maps that frame integrated.
   mvao_image(grid, maps, T_world_camera, from_slots, &slots);
   Image<float> reference_unchanged;
-  mvao_image_reference(grid, maps, T_world_camera, reference_unchanged);
+  test::mvao_image_reference(grid, maps, T_world_camera, reference_unchanged);
   int from_slot = 0;
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
@@ -172,7 +173,7 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   const fs::path out = fresh_dir("snap_out");
   const fs::path snaps = fresh_dir("snap_png");
   std::unique_ptr<Source> source = open_source("synth:corner?frames=8&width=160&height=120");
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = out.string();
   options.threads = 2;
   options.snapshot_dir = snaps.string();
@@ -189,7 +190,7 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);
-  EXPECT_EQ(r.snapshot_files, 15u);
+  EXPECT_EQ(r.session.snapshot_files, 15u);
   for (const std::string& name : expected) {
     const auto [w, h] = png_size(snaps / name);
     EXPECT_EQ(w, 160) << name;
@@ -204,7 +205,7 @@ TEST(ViewStage, FullResolutionSnapshotsShowTheHalfResolutionModel) {
   const fs::path out = fresh_dir("snap_full_out");
   const fs::path snaps = fresh_dir("snap_full_png");
   std::unique_ptr<Source> source = open_source("synth:corner?frames=2");
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = out.string();
   options.threads = 2;
   options.snapshot_dir = snaps.string();
@@ -373,8 +374,8 @@ class ScriptedSource : public Source {
 
 constexpr const char* kCorner = "synth:corner?frames=16&width=160&height=120";
 
-SessionOptions command_session(const fs::path& out, ViewCommandQueue& commands) {
-  SessionOptions options;
+RunOptions command_session(const fs::path& out, ViewCommandQueue& commands) {
+  RunOptions options;
   options.out_dir = out.string();
   options.threads = 2;
   options.commands = &commands;
@@ -396,8 +397,8 @@ TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
   ScriptedSource one("synth:corner?frames=1&width=160&height=120", unused);
   const SessionResult r1 = run_session(one, command_session(fresh_dir("one"), unused), stop);
   ASSERT_EQ(r1.exit_code, ExitCode::kOk) << r1.error;
-  EXPECT_GT(r1.mesh_vertices, 0u);
-  EXPECT_EQ(r.mesh_vertices, r1.mesh_vertices);
+  EXPECT_GT(r1.mesh.vertices, 0u);
+  EXPECT_EQ(r.mesh.vertices, r1.mesh.vertices);
 
   ViewCommandQueue commands2;
   commands2.push(ViewCommand::kPauseIntegration);
@@ -409,8 +410,8 @@ TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
   ASSERT_EQ(r2.exit_code, ExitCode::kOk) << r2.error;
   // Frames fused after the resume add blocks (blocks are never freed, and the camera moves on to
   // new parts of the scene) and change the mesh.
-  EXPECT_GT(r2.tsdf_blocks, r.tsdf_blocks);
-  EXPECT_NE(r2.mesh_vertices, r.mesh_vertices);
+  EXPECT_GT(r2.tsdf.blocks, r.tsdf.blocks);
+  EXPECT_NE(r2.mesh.vertices, r.mesh.vertices);
 }
 
 TEST(SessionCommands, ResetStartsANewModelAndTrajectory) {
@@ -422,7 +423,7 @@ TEST(SessionCommands, ResetStartsANewModelAndTrajectory) {
   const fs::path out = fresh_dir("reset");
   const SessionResult r = run_session(source, command_session(out, commands), stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
-  EXPECT_EQ(r.model_resets, 1u);
+  EXPECT_EQ(r.processing.model_resets, 1u);
   const std::vector<StampedPose> trajectory = read_trajectory((out / "trajectory.txt").string());
   ASSERT_FALSE(trajectory.empty());
   // The track stage takes the reset before its next frame (capture may be a few frames ahead of
@@ -432,7 +433,7 @@ TEST(SessionCommands, ResetStartsANewModelAndTrajectory) {
   EXPECT_NEAR(trajectory.back().timestamp_s, 15.0 / 30.0, 1e-6);
   // The new model's world frame is the camera frame of its first frame.
   EXPECT_LT(trajectory.front().T_world_camera.translation().norm(), 1e-9);
-  EXPECT_GT(r.mesh_vertices, 0u);
+  EXPECT_GT(r.mesh.vertices, 0u);
 }
 
 TEST(SessionCommands, WriteOutputsNowWritesTheMeshMidRun) {
@@ -449,7 +450,7 @@ TEST(SessionCommands, WriteOutputsNowWritesTheMeshMidRun) {
   const SessionResult r = run_session(source, command_session(out, commands), stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_TRUE(source.condition_met_);
-  EXPECT_EQ(r.outputs_written_on_request, 1u);
+  EXPECT_EQ(r.processing.outputs_written_on_request, 1u);
   EXPECT_EQ(r.pipeline.counters.frames_processed, 16u);
 }
 
@@ -461,7 +462,7 @@ TEST(SessionCommands, QuitStopsLikeSigintWithOutputs) {
   const fs::path out = fresh_dir("quit");
   const SessionResult r = run_session(source, command_session(out, commands), stop);
   EXPECT_EQ(r.exit_code, ExitCode::kOk) << r.error;
-  EXPECT_TRUE(r.quit_by_user);
+  EXPECT_TRUE(r.session.quit_by_user);
   EXPECT_GE(r.pipeline.counters.frames_processed, 5u);
   EXPECT_LT(r.pipeline.counters.frames_processed, 1000u);
   EXPECT_EQ(r.pipeline.counters.frames_processed, r.pipeline.counters.frames_read);

@@ -119,28 +119,29 @@ TEST(VolumeExport, ReadBackVolumeMeshesLikeTheOriginal) {
 
 TEST(VolumeExport, SessionWritesVolumeAndStats) {
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=4&width=80&height=60");
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = fresh_dir("session").string();
   options.threads = 1;
   options.save_volume = true;
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(*source, options, stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
-  EXPECT_TRUE(r.volume_written);
-  EXPECT_GT(r.volume_active_voxels, 1000u);
+  ASSERT_TRUE(r.volume);
+  EXPECT_TRUE(r.volume->written);
+  EXPECT_GT(r.volume->active_voxels, 1000u);
   std::ifstream in(fs::path(options.out_dir) / "stats.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["volume"]["written"], true);
-  EXPECT_EQ(j["volume"]["active_voxels"].get<std::size_t>(), r.volume_active_voxels);
+  EXPECT_EQ(j["volume"]["active_voxels"].get<std::size_t>(), r.volume->active_voxels);
   EXPECT_EQ(j["volume"]["bytes"].get<std::uintmax_t>(),
             fs::file_size(fs::path(options.out_dir) / "volume.vdb"));
   const VolumeData data = read_volume_vdb((fs::path(options.out_dir) / "volume.vdb").string());
-  EXPECT_EQ(data.bricks.size(), r.volume_bricks);
+  EXPECT_EQ(data.bricks.size(), r.volume->bricks);
 }
 
 TEST(VolumeExport, SessionWithoutSaveVolumeWritesNoVolume) {
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = fresh_dir("no_volume").string();
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(*source, options, stop);
@@ -152,7 +153,7 @@ TEST(VolumeExport, SessionWithoutSaveVolumeWritesNoVolume) {
 
 TEST(VolumeExport, UnwritableVolumeIsAUsageErrorBeforeTheRun) {
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = fresh_dir("blocked").string();
   options.save_volume = true;
   fs::create_directories(fs::path(options.out_dir) / "volume.vdb");  // a folder in the way
@@ -169,7 +170,7 @@ TEST(VolumeExport, UnwritableVolumeIsAUsageErrorBeforeTheRun) {
 
 TEST(VolumeExport, ALaterSetUpErrorLeavesNoEmptyVolume) {
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
-  SessionOptions options;
+  RunOptions options;
   options.out_dir = fresh_dir("later_error").string();
   options.save_volume = true;
   const fs::path in_the_way = fresh_dir("later_error_snapshots") / "a_file";

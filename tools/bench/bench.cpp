@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 
+#include "capture/read_status.h"
 #include "capture/source.h"
 #include "core/host_cpu.h"
 #include "core/log.h"
@@ -78,7 +79,7 @@ int run_serial(const BenchRun& run) {
   const std::optional<HostCpuTimes> host_before = read_host_cpu_times();
   const std::string& spec = run.spec;
   std::vector<StageStats> stats;
-  std::size_t frames = 0, lost = 0;
+  std::size_t frames = 0, lost = 0, corrupt = 0;
   double wall_s = 0;
   for (int r = 0; r < run.repeat; ++r) {
     Processing processing(run.config);  // every pass starts a new model
@@ -92,10 +93,14 @@ int run_serial(const BenchRun& run) {
     const auto start = Clock::now();
     for (std::size_t i = 0; !run.max_frames || i < *run.max_frames; ++i) {
       auto t0 = Clock::now();
-      const Status read = source->read(frame.raw);
-      if (read.code() == Status::Code::kEndOfStream) break;
-      if (read.code() == Status::Code::kCorruptFrame) continue;
-      if (!read.is_ok()) throw Error(read.exit_code(), read.message());
+      Status stopped_by;
+      const ReadStep step =
+          handle_read_status(source->read(frame.raw), ReadPolicy{}, corrupt, stopped_by);
+      if (step == ReadStep::kSkip) continue;
+      if (step == ReadStep::kStop) {
+        if (stopped_by.is_ok()) break;
+        throw Error(stopped_by.exit_code(), stopped_by.message());
+      }
       stats[0].add_ms(ms_since(t0));
       for (std::size_t s = 0; s < stages.size(); ++s) {
         t0 = Clock::now();

@@ -19,6 +19,7 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 
+#include "core/percentile.h"
 #include "core/status.h"
 #include "fusion/tsdf/marching_cubes.h"
 #include "io/ply.h"
@@ -50,7 +51,7 @@ std::vector<double> median_ms(int repeat, const std::vector<std::function<void()
   std::vector<double> medians;
   for (std::vector<double>& t : times) {
     std::sort(t.begin(), t.end());
-    medians.push_back(t[t.size() / 2]);
+    medians.push_back(nearest_rank(t, 0.5));
   }
   return medians;
 }
