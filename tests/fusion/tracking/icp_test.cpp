@@ -17,6 +17,7 @@
 #include "fusion/tsdf/raycast.h"
 #include "fusion/tsdf/tsdf_volume.h"
 #include "support/test_scenes.h"
+#include "support/tracking_reference.h"
 
 namespace aoscan {
 namespace {
