@@ -61,7 +61,8 @@ constexpr bool morton_in_range(std::int32_t x, std::int32_t y, std::int32_t z) {
 }
 
 /// Morton code of cell (x, y, z) (grid cell indices, unitless), or std::nullopt when a coordinate
-/// is out of range: never wraps. Fast version (magic-number bit spreading).
+/// is out of range: never wraps. Fast version (magic-number bit spreading); the test oracle
+/// morton_encode_reference() (tests/support) goes bit by bit.
 constexpr std::optional<std::uint64_t> morton_encode(std::int32_t x, std::int32_t y,
                                                      std::int32_t z) {
   if (!morton_in_range(x, y, z)) return std::nullopt;
@@ -71,36 +72,14 @@ constexpr std::optional<std::uint64_t> morton_encode(std::int32_t x, std::int32_
 }
 
 /// Cell coordinates of `code`. Bit 63 (never set by morton_encode) is ignored, so every input
-/// decodes to an in-range cell. Fast version (magic-number bit compaction).
+/// decodes to an in-range cell. Fast version (magic-number bit compaction); the test oracle
+/// morton_decode_reference() (tests/support) goes bit by bit.
 constexpr void morton_decode(std::uint64_t code, std::int32_t& x, std::int32_t& y,
                              std::int32_t& z) {
   using namespace morton_detail;
   x = to_signed(compact_bits(code));
   y = to_signed(compact_bits(code >> 1));
   z = to_signed(compact_bits(code >> 2));
-}
-
-/// Bit-by-bit reference of morton_encode() (same contract), as libmorton's control_encode.
-constexpr std::optional<std::uint64_t> morton_encode_reference(std::int32_t x, std::int32_t y,
-                                                               std::int32_t z) {
-  if (!morton_in_range(x, y, z)) return std::nullopt;
-  const std::uint64_t u[3] = {morton_detail::to_unsigned(x), morton_detail::to_unsigned(y),
-                              morton_detail::to_unsigned(z)};
-  std::uint64_t code = 0;
-  for (int bit = 0; bit < kMortonBitsPerAxis; ++bit)
-    for (int axis = 0; axis < 3; ++axis) code |= ((u[axis] >> bit) & 1u) << (3 * bit + axis);
-  return code;
-}
-
-/// Bit-by-bit reference of morton_decode() (same contract).
-constexpr void morton_decode_reference(std::uint64_t code, std::int32_t& x, std::int32_t& y,
-                                       std::int32_t& z) {
-  std::uint64_t u[3] = {0, 0, 0};
-  for (int bit = 0; bit < kMortonBitsPerAxis; ++bit)
-    for (int axis = 0; axis < 3; ++axis) u[axis] |= ((code >> (3 * bit + axis)) & 1u) << bit;
-  x = morton_detail::to_signed(u[0]);
-  y = morton_detail::to_signed(u[1]);
-  z = morton_detail::to_signed(u[2]);
 }
 
 }  // namespace aoscan

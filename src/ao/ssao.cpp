@@ -43,13 +43,10 @@ int pattern_class(int x, int y) {
   return (x & 3) + kSsaoPatternTile * (y & 3);
 }
 
-/// Nearest pixel of an offset in units of the disk radius.
-int offset_px(int centre, float offset, float radius_px) {
-  return centre + static_cast<int>(std::floor(offset * radius_px + 0.5f));
-}
-
-/// offset_px() without a libm call: floor by truncation and a correction, exactly std::floor for
-/// the arguments that occur (|offset| <= 1, radius <= kMaxRadiusPx), so both give the same pixel.
+/// Nearest pixel of an offset in units of the disk radius, centre + floor(offset * radius_px +
+/// 0.5), without a libm call: floor by truncation and a correction, exactly std::floor for the
+/// arguments that occur (|offset| <= 1, radius <= kMaxRadiusPx), so it gives the pixel of the
+/// formula.
 inline int offset_px_fast(int centre, float offset, float radius_px) {
   const float v = offset * radius_px + 0.5f;
   const int t = static_cast<int>(v);
@@ -73,12 +70,6 @@ struct PixelAo {
   float ao;
   float coverage;
 };
-
-/// Radius (metres) of the screen-space disk of an estimator: r_s, or t_max for the heightfield
-/// estimator, which marches out to where rho reaches 1.
-float disk_radius_m(const FrameSetup& s) {
-  return s.pattern->estimator == AoEstimator::kHeightfield ? s.t_max_m : s.radius_m;
-}
 
 /// The weight of an evaluated pixel: Eq. 10-11 times the coverage weight.
 float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
@@ -325,135 +316,6 @@ PixelFn fast_kernel(AoEstimator e) {
   return &fast_horizon_ao;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Reference: one generic per-pixel function written from the formulas.
-
-PixelAo reference_pixel_ao(const FrameSetup& s, int x, int y) {
-  const PointMaps& maps = *s.maps;
-  const SsaoPattern& pat = *s.pattern;
-  const Eigen::Vector3f p = maps.vertices(x, y);
-  const Eigen::Vector3f n = maps.normals(x, y);  // the SSAO normal (smoothed map)
-  const float radius_x = std::min(s.fx * disk_radius_m(s) / p.z(), kMaxRadiusPx);
-  const float radius_y = std::min(s.fy * disk_radius_m(s) / p.z(), kMaxRadiusPx);
-  const int cls = pattern_class(x, y);
-  int counted = 0;
-
-  // Returns the sample's vertex, or false when the sample is not counted.
-  auto fetch = [&](const Eigen::Vector2f& o, Eigen::Vector3f& q) {
-    const int sx = offset_px(x, o.x(), radius_x);
-    const int sy = offset_px(y, o.y(), radius_y);
-    if (!maps.vertices.contains(sx, sy) || (sx == x && sy == y)) return false;
-    q = maps.vertices(sx, sy);
-    if (!(q.z() > 0.0f) || !q.allFinite()) return false;
-    if (!((q - p).squaredNorm() > 0.0f)) return false;
-    ++counted;
-    return true;
-  };
-  auto coverage = [&] { return static_cast<float>(counted) / static_cast<float>(pat.samples); };
-
-  if (pat.estimator == AoEstimator::kHorizon || pat.estimator == AoEstimator::kHeightfield) {
-    const Eigen::Vector3f view = -p.normalized();
-    float visibility = 0.0f, open = 0.0f;
-    for (int sl = 0; sl < pat.slices; ++sl) {
-      const Eigen::Vector2f d2 = pat.slice_dirs[cls * pat.slices + sl];
-      const Eigen::Vector3f dir(d2.x(), d2.y(), 0.0f);
-      const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
-      const Eigen::Vector3f axis = ortho.cross(view).normalized();
-      const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
-      const float proj_len = proj_n.norm();
-      if (!(proj_len > 1e-6f)) continue;
-      const float cos_n = std::clamp(proj_n.dot(view) / proj_len, 0.0f, 1.0f);
-      const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
-      // Cosine-weighted measure of the slice directions between the view vector and angle a.
-      auto arc = [&](float a) {
-        return 0.25f * (cos_n + 2.0f * a * std::sin(n_ang) - std::cos(2.0f * a - n_ang));
-      };
-      // What the slice sees with nothing above the tangent plane: not 1 per slice off the view
-      // axis (only the mean over slice directions is), so the AO is the ratio of the two.
-      open += proj_len * (arc(n_ang + kHalfPiF) + arc(n_ang - kHalfPiF));
-      if (pat.estimator == AoEstimator::kHeightfield) {
-        for (int side = 0; side < 2; ++side) {
-          const float sign = side == 0 ? 1.0f : -1.0f;
-          float horizon = n_ang + sign * kHalfPiF;  // the tangent plane
-          float slice_side = arc(horizon);
-          for (int k = 0; k < pat.steps; ++k) {
-            Eigen::Vector3f q;
-            if (!fetch(pat.offsets[cls * pat.samples + (sl * 2 + side) * pat.steps + k], q))
-              continue;
-            const Eigen::Vector3f lowered = q - p - n * (s.bias * p.z());
-            if (!(lowered.norm() > 0.0f)) continue;
-            const float angle =
-                sign * std::acos(std::clamp(lowered.dot(view) / lowered.norm(), -1.0f, 1.0f));
-            if (!(std::abs(angle) < std::abs(horizon))) continue;
-            // Directions between the old and the new horizon hit this sample's surface.
-            const float rho = smoothstep01((q - p).norm(), s.t_max_m);
-            slice_side -= (1.0f - rho) * (arc(horizon) - arc(angle));
-            horizon = angle;
-          }
-          visibility += proj_len * slice_side;
-        }
-        continue;
-      }
-      float h[2];
-      for (int side = 0; side < 2; ++side) {
-        const float low = std::cos(side == 0 ? n_ang + kHalfPiF : n_ang - kHalfPiF);
-        float best = low;
-        for (int k = 0; k < pat.steps; ++k) {
-          Eigen::Vector3f q;
-          if (!fetch(pat.offsets[cls * pat.samples + (sl * 2 + side) * pat.steps + k], q)) continue;
-          const float dist = (q - p).norm();
-          const float rho = smoothstep01(dist, s.t_max_m);
-          best = std::max(best, low + ((q - p).dot(view) / dist - low) * (1.0f - rho));
-        }
-        h[side] = std::acos(std::min(best, 1.0f));
-      }
-      const float h0 = n_ang + std::min(h[0] - n_ang, kHalfPiF);
-      const float h1 = n_ang + std::max(-h[1] - n_ang, -kHalfPiF);
-      visibility += proj_len * (arc(h0) + arc(h1));
-    }
-    if (!(open > 0.0f)) return {1.0f, coverage()};
-    return {std::clamp(visibility / open, 0.0f, 1.0f), coverage()};
-  }
-
-  float sum = 0.0f;
-  for (int k = 0; k < pat.samples; ++k) {
-    Eigen::Vector3f q;
-    const Eigen::Vector2f& o = pat.offsets[cls * pat.samples + k];
-    if (!fetch(o, q)) continue;
-    const Eigen::Vector3f v = q - p;
-    const float dist = v.norm();
-    const float rho = smoothstep01(dist, s.t_max_m);
-    const float height = n.dot(v) - s.bias * p.z();  // above the tangent plane, less the bias
-    const float c = height / dist;
-    switch (pat.estimator) {
-      case AoEstimator::kPaper:  // Eq. 3-5
-        sum += rho * (1.0f - std::max(n.dot(v) / dist, 0.0f));
-        break;
-      case AoEstimator::kObscurance:
-        sum += std::max(c, 0.0f) * (1.0f - rho);
-        break;
-      case AoEstimator::kAlchemy: {
-        float term = s.radius_m * std::max(height, 0.0f) /
-                     (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
-        // The sample's pixel covers surface area in proportion to 1 / cos theta_q.
-        if (s.area_min_cos < 1.0f && height > 0.0f)
-          term *= area_factor(q, maps.normals(offset_px(x, o.x(), radius_x),
-                                              offset_px(y, o.y(), radius_y)),
-                              s.area_min_cos);
-        sum += term;
-        break;
-      }
-      case AoEstimator::kHorizon:
-      case AoEstimator::kHeightfield:
-        break;
-    }
-  }
-  if (counted == 0) return {1.0f, coverage()};
-  const float mean = sum / static_cast<float>(counted);
-  return {std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f),
-          coverage()};
-}
-
 FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const AoConfig& config) {
   return FrameSetup{&maps,
                     &pattern,
@@ -613,51 +475,6 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
       }
     }
   });
-}
-
-void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
-                            std::uint64_t frame_index, Image<float>& ao, Image<float>& weight) {
-  const int w = maps.vertices.width();
-  const int h = maps.vertices.height();
-  ao.resize(w, h, 0.0f);
-  weight.resize(w, h, 0.0f);
-  if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
-  const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
-  PointMaps smoothed_maps;
-  if (config.normal_radius_px > 0)
-    smooth_model_normals_reference(maps, config.normal_radius_px,
-                                   static_cast<float>(config.normal_max_distance_m),
-                                   smoothed_maps);
-  const PointMaps& maps_in = config.normal_radius_px > 0 ? smoothed_maps : maps;
-  const FrameSetup setup = make_setup(maps_in, pattern, config);
-  auto valid = [&](int x, int y) {
-    return maps_in.vertices.contains(x, y) &&
-           ssao_pixel_valid(maps_in.vertices(x, y), maps_in.normals(x, y));
-  };
-  const int stride = config.ssao_stride_px <= 1 ? 1 : 2;
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      if (!valid(x, y)) continue;
-      // The pixel of this pixel's block that is evaluated this frame.
-      int ex = x, ey = y;
-      if (stride == 2) {
-        for (int i = 3; i >= 0; --i) {
-          const int* o = kBlockOrder[(frame_index % 4 + i) & 3];
-          if (valid(x - x % 2 + o[0], y - y % 2 + o[1]))
-            ex = x - x % 2 + o[0], ey = y - y % 2 + o[1];
-        }
-      }
-      const PixelAo r = reference_pixel_ao(setup, ex, ey);
-      ao(x, y) = r.ao;
-      if (ex == x && ey == y) {
-        float w_px = view_weight(maps_in.vertices(x, y), maps_in.normals(x, y), setup.d_min_m,
-                                 setup.d_max_m);
-        if (setup.coverage_power > 0.0f)
-          w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);
-        weight(x, y) = w_px;
-      }
-    }
-  }
 }
 
 }  // namespace aoscan

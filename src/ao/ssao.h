@@ -92,7 +92,8 @@ bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& norm
 /// resolution, reusing their buffers. With config.ssao_stride_px = 2, one pixel per 2x2 block is
 /// evaluated (the first valid one in an order that rotates with the frame) and its AO is copied to
 /// the block's other valid pixels with weight 0. Rows run in parallel through TBB; the result is
-/// bit-identical for any thread count.
+/// bit-identical for any thread count. It matches the plain serial test oracle
+/// compute_ssao_reference() (tests/support), written directly from the formulas, within 1e-5.
 void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
                   Image<float>& ao, Image<float>& weight);
 
@@ -107,10 +108,5 @@ struct SsaoWorkspace {
 /// compute_ssao() with the caller's buffers (the overload above makes its own each call).
 void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t frame_index,
                   Image<float>& ao, Image<float>& weight, SsaoWorkspace& workspace);
-
-/// Plain serial per-pixel implementation of compute_ssao() (same contract), written directly from
-/// the formulas; the fast version matches it within 1e-5.
-void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
-                            std::uint64_t frame_index, Image<float>& ao, Image<float>& weight);
 
 }  // namespace aoscan

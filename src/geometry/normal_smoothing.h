@@ -22,13 +22,10 @@ namespace aoscan {
 /// behind a depth jump. Pixels without a vertex or a normal keep a zero normal; vertices and
 /// intrinsics are copied. The result does not depend on the thread count. Multi-threaded over
 /// rows, eight pixels at a time with AVX2 where the window lies inside the image; bit for bit
-/// the result of smooth_model_normals_reference(). `scratch` (the maps as float planes) is
-/// reused between calls.
+/// smoothed_normal() at every pixel (the test oracle smooth_model_normals_reference() in
+/// tests/support). `scratch` (the maps as float planes) is reused between calls.
 void smooth_model_normals(const PointMaps& in, int radius_px, float max_distance_m, PointMaps& out,
                           std::vector<float>& scratch);
-/// Plain serial reference of smooth_model_normals().
-void smooth_model_normals_reference(const PointMaps& in, int radius_px, float max_distance_m,
-                                    PointMaps& out);
 
 /// The normalised sum of the normals of the pixels within radius_px of (x, y) (a (2 radius_px +
 /// 1)^2 window clipped at the image border, rows then columns) whose vertices lie within

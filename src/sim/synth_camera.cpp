@@ -458,14 +458,10 @@ void render_synth_depth(const AnalyticScene& scene, const Intrinsics& intrinsics
   });
 }
 
-void render_synth_depth_reference(const AnalyticScene& scene, const Intrinsics& intrinsics,
-                                  const Pose& T_world_camera, const SynthRenderOptions& options,
-                                  Image<std::uint16_t>& depth) {
-  depth.resize(intrinsics.width, intrinsics.height);
-  const RenderSetup setup = make_setup(scene, intrinsics, T_world_camera, options);
-  for (int v = 0; v < intrinsics.height; ++v) {
-    for (int u = 0; u < intrinsics.width; ++u) depth(u, v) = render_pixel(setup, nullptr, u, v);
-  }
+std::uint16_t render_synth_depth_pixel(const AnalyticScene& scene, const Intrinsics& intrinsics,
+                                       const Pose& T_world_camera,
+                                       const SynthRenderOptions& options, int u, int v) {
+  return render_pixel(make_setup(scene, intrinsics, T_world_camera, options), nullptr, u, v);
 }
 
 void render_synth_frame(const AnalyticScene& scene, const SynthParams& params, std::uint64_t index,

@@ -91,10 +91,12 @@ void render_synth_depth(const AnalyticScene& scene, const Intrinsics& intrinsics
                         const Pose& T_world_camera, const SynthRenderOptions& options,
                         Image<std::uint16_t>& depth);
 
-/// The same as render_synth_depth on one thread, pixel by pixel (the reference implementation).
-void render_synth_depth_reference(const AnalyticScene& scene, const Intrinsics& intrinsics,
-                                  const Pose& T_world_camera, const SynthRenderOptions& options,
-                                  Image<std::uint16_t>& depth);
+/// Raw depth of pixel (u, v) of render_synth_depth() with the same arguments, its ray tested
+/// against every primitive of the scene (no tile culling): the per-pixel arithmetic that the test
+/// oracle render_synth_depth_reference() (tests/support) repeats pixel by pixel.
+std::uint16_t render_synth_depth_pixel(const AnalyticScene& scene, const Intrinsics& intrinsics,
+                                       const Pose& T_world_camera,
+                                       const SynthRenderOptions& options, int u, int v);
 
 /// Frame `index` of the stream that `params` describes: its depth rendered from the trajectory's
 /// pose at time index / fps with the params' noise and seed, `depth_scale` kSynthDepthScale,

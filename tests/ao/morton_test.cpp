@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/ao_reference.h"
+
 namespace aoscan {
 namespace {
 

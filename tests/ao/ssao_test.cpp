@@ -13,7 +13,9 @@
 #include <tbb/global_control.h>
 
 #include "fusion/tracking/icp.h"
+#include "support/ao_reference.h"
 #include "support/ao_test_util.h"
+#include "support/geometry_reference.h"
 
 namespace aoscan {
 namespace {

@@ -13,6 +13,7 @@
 
 #include "capture/synth_source.h"
 #include "core/status.h"
+#include "support/sim_reference.h"
 
 namespace aoscan {
 namespace {

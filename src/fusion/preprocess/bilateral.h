@@ -16,18 +16,16 @@ namespace aoscan {
 /// an offset from z_p keeps a constant depth exactly constant. Invalid pixels stay invalid and do
 /// not contribute. A radius of 0 copies the input. This is the fast version (AVX2 + FMA over eight
 /// pixels with the window's sums in registers when the CPU has them, else
-/// bilateral_filter_portable(); TBB over rows); it agrees with bilateral_filter_reference() within
-/// 1e-6 m, and its result does not depend on the thread count.
+/// bilateral_filter_portable(); TBB over rows); it agrees with the plain per-pixel test oracle
+/// bilateral_filter_reference() (tests/support) within 1e-6 m, and its result does not depend on
+/// the thread count.
 void bilateral_filter(const Image<float>& depth_m, const PreprocessConfig& config,
                       Image<float>& out);
 
-/// The portable path of bilateral_filter() that runs when the CPU lacks AVX2 + FMA (SSE2 rows on
-/// x86-64); same contract and tolerance. Exposed so that tests cover it on any machine.
+/// The portable path of bilateral_filter(): the fallback that runs when the CPU lacks AVX2 + FMA
+/// (SSE2 rows on x86-64); same contract and tolerance. Exposed so that tests cover it on any
+/// machine.
 void bilateral_filter_portable(const Image<float>& depth_m, const PreprocessConfig& config,
                                Image<float>& out);
-
-/// Plain per-pixel scalar reference of bilateral_filter() (std::exp for every tap).
-void bilateral_filter_reference(const Image<float>& depth_m, const PreprocessConfig& config,
-                                Image<float>& out);
 
 }  // namespace aoscan

@@ -1,6 +1,7 @@
 /// @file preprocess.cpp
-/// @brief Raw depth to metres, border-outlier removal (reference, fast and fused with the
-/// conversion), and the whole per-frame preprocessing chain.
+/// @brief Raw depth to metres, border-outlier removal (the row dispatch between the portable and
+/// the AVX2 kernel, and the removal fused with the conversion), and the whole per-frame
+/// preprocessing chain.
 #include "fusion/preprocess/preprocess.h"
 
 #include <cmath>
@@ -10,11 +11,17 @@
 
 #include "core/status.h"
 #include "fusion/preprocess/bilateral.h"
+#include "fusion/preprocess/preprocess_kernels.h"
 #include "fusion/preprocess/pyramid.h"
 #include "geometry/simd.h"
 
 namespace aoscan {
 namespace {
+
+using outlier_detail::filter_row_body;
+#if defined(AOSCAN_PREPROCESS_AVX2)
+using outlier_detail::filter_row_avx2;
+#endif
 
 /// Raw-to-metres conversion shared by depth_to_metres() and preprocess_depth(), so that both give
 /// the same floats.
@@ -46,60 +53,11 @@ struct MetresConverter {
   }
 };
 
-/// 1 when neighbour depth `n` is valid and differs from `c` by more than `t`.
-inline int differs(float c, float n, float t) {
-  return (n > 0.0f) & (std::fabs(c - n) > t);
-}
-
-/// Outlier decision for one pixel given its three rows and clamped column indices. Clamping a
-/// missing neighbour onto the pixel itself (or onto a neighbour already compared) never changes
-/// the decision, because |c - c| = 0 is never above a positive threshold.
-inline float filter_pixel(const float* up, const float* mid, const float* dn, int xl, int x, int xr,
-                          float t0, float per_m2) {
-  const float c = mid[x];
-  const float t = t0 + per_m2 * c * c;
-  const int bad = differs(c, up[xl], t) | differs(c, up[x], t) | differs(c, up[xr], t) |
-                  differs(c, mid[xl], t) | differs(c, mid[xr], t) | differs(c, dn[xl], t) |
-                  differs(c, dn[x], t) | differs(c, dn[xr], t) | !(c > 0.0f);
-  return bad ? 0.0f : c;
-}
-
-/// Filters one row. `up` / `dn` are the rows above and below, or `mid` itself at the image border
-/// (see filter_pixel() for why that is exact). Requires t0 > 0 and per_m2 >= 0. Branch-free, so
-/// the compiler vectorises the interior at the width of the target it is compiled for.
-__attribute__((always_inline)) inline void filter_row_body(const float* up, const float* mid,
-                                                           const float* dn, int width, float t0,
-                                                           float per_m2, float* out) {
-  if (width <= 0) return;
-  if (width == 1) {
-    out[0] = filter_pixel(up, mid, dn, 0, 0, 0, t0, per_m2);
-    return;
-  }
-  out[0] = filter_pixel(up, mid, dn, 0, 0, 1, t0, per_m2);
-  for (int x = 1; x < width - 1; ++x)
-    out[x] = filter_pixel(up, mid, dn, x - 1, x, x + 1, t0, per_m2);
-  out[width - 1] = filter_pixel(up, mid, dn, width - 2, width - 1, width - 1, t0, per_m2);
-}
-
 /// filter_row_body() for the baseline target (SSE2 on x86-64).
 void filter_row_portable(const float* up, const float* mid, const float* dn, int width, float t0,
                          float per_m2, float* out) {
   filter_row_body(up, mid, dn, width, t0, per_m2, out);
 }
-
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define AOSCAN_PREPROCESS_AVX2 1
-/// filter_row_body() compiled for AVX2: eight pixels per vector. Comparisons and selects only,
-/// and no FMA (the threshold t0 + per_m2 * c * c rounds as in the portable build), so the same
-/// bits.
-__attribute__((target("avx2"))) AOSCAN_NO_CONTRACT void filter_row_avx2(const float* up,
-                                                                        const float* mid,
-                                                                        const float* dn, int width,
-                                                                        float t0, float per_m2,
-                                                                        float* out) {
-  filter_row_body(up, mid, dn, width, t0, per_m2, out);
-}
-#endif
 
 /// One row through the fastest filter_row_*() the CPU runs (`simd` false: the portable one).
 void filter_row(const float* up, const float* mid, const float* dn, int width, float t0,
@@ -129,27 +87,6 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
   const int h = frame.depth.height();
   depth_m.resize(w, h);
   for (int y = 0; y < h; ++y) convert.row(frame.depth.row(y), w, depth_m.row(y));
-}
-
-void remove_border_outliers_reference(const Image<float>& depth_m, float threshold_m,
-                                      float threshold_per_m2, Image<float>& out) {
-  out = depth_m;
-  if (!filter_enabled(threshold_m)) return;
-  for (int y = 0; y < depth_m.height(); ++y) {
-    for (int x = 0; x < depth_m.width(); ++x) {
-      const float c = depth_m(x, y);
-      const float t = threshold_m + threshold_per_m2 * c * c;
-      bool remove = !(c > 0.0f);
-      for (int dy = -1; dy <= 1 && !remove; ++dy) {
-        for (int dx = -1; dx <= 1 && !remove; ++dx) {
-          if ((dx == 0 && dy == 0) || !depth_m.contains(x + dx, y + dy)) continue;
-          const float n = depth_m(x + dx, y + dy);
-          if (n > 0.0f && std::fabs(c - n) > t) remove = true;
-        }
-      }
-      if (remove) out(x, y) = 0.0f;
-    }
-  }
 }
 
 namespace {

@@ -45,19 +45,16 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
 ///   discontinuity by itself (the paper's filter targets depth jumps between measured surfaces).
 /// - Pixels on the image border compare with the neighbours they have.
 /// - `threshold_m` <= 0 disables the filter (the output is a copy).
-/// This is the fast version (row pointers, branch-free vectorisable inner loop); it equals
-/// remove_border_outliers_reference() bit for bit.
+/// This is the fast version (row pointers, branch-free vectorisable inner loop; AVX2 rows when
+/// the CPU has it, else those of remove_border_outliers_portable()); it equals the plain
+/// per-pixel test oracle remove_border_outliers_reference() (tests/support) bit for bit.
 void remove_border_outliers(const Image<float>& depth_m, float threshold_m, float threshold_per_m2,
                             Image<float>& out);
 
-/// The baseline-target rows of remove_border_outliers() (SSE2 on x86-64), which run when the CPU
-/// lacks AVX2; the same bits.
+/// The baseline-target rows of remove_border_outliers() (SSE2 on x86-64): the fallback that runs
+/// when the CPU lacks AVX2; the same bits. Exposed so that tests cover it on any machine.
 void remove_border_outliers_portable(const Image<float>& depth_m, float threshold_m,
                                      float threshold_per_m2, Image<float>& out);
-
-/// Plain per-pixel scalar reference of remove_border_outliers() (same contract).
-void remove_border_outliers_reference(const Image<float>& depth_m, float threshold_m,
-                                      float threshold_per_m2, Image<float>& out);
 
 /// depth_to_metres() followed by remove_border_outliers() with config.outlier_threshold_m and
 /// config.outlier_threshold_per_m2, fused into one pass over the frame; bit-for-bit equal to

@@ -58,19 +58,17 @@ struct IcpSystem {
 /// those. This is the fast version: AVX2 + FMA over eight pixels when the CPU has them (else
 /// icp_system_portable()), each image row summed in float and the rows in double, TBB over fixed
 /// groups of rows reduced in a fixed tree: the result does not depend on the thread count. It
-/// picks exactly the correspondences of icp_system_reference() (same valid and inlier counts) and
-/// agrees with its sums up to the float rounding of the row sums (about 1e-6 relative).
+/// picks exactly the correspondences of the test oracle icp_system_reference() (tests/support;
+/// same valid and inlier counts) and agrees with its sums up to the float rounding of the row
+/// sums (about 1e-6 relative).
 IcpSystem icp_system(const PointMaps& frame, const PointMaps& model, const Pose& T_model_camera,
                      const TrackingConfig& config, int pixel_step = 1);
-/// The scalar path of icp_system() that runs when the CPU lacks AVX2 + FMA (same contract and
-/// tolerance; rows summed in float one pixel after another). Exposed so tests cover it anywhere.
+/// The scalar path of icp_system(): the fallback that runs when the CPU lacks AVX2 + FMA (same
+/// contract and tolerance; rows summed in float one pixel after another). Exposed so tests cover
+/// it anywhere.
 IcpSystem icp_system_portable(const PointMaps& frame, const PointMaps& model,
                               const Pose& T_model_camera, const TrackingConfig& config,
                               int pixel_step = 1);
-/// Plain single-threaded reference of icp_system(): one running double sum over all pixels.
-IcpSystem icp_system_reference(const PointMaps& frame, const PointMaps& model,
-                               const Pose& T_model_camera, const TrackingConfig& config,
-                               int pixel_step = 1);
 
 /// One Gauss-Newton step: the increment xi solving A xi = -b in the eigenbasis of A, where the
 /// data constrain it, and the increment `prior` (the one that would reach the motion prior) where

@@ -13,6 +13,7 @@
 #include "fusion/preprocess/bilateral.h"
 #include "fusion/preprocess/preprocess.h"
 #include "support/prep_test_util.h"
+#include "support/preprocess_reference.h"
 
 namespace aoscan {
 namespace {

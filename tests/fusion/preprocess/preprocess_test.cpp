@@ -20,6 +20,7 @@
 
 #include "core/status.h"
 #include "support/prep_test_util.h"
+#include "support/preprocess_reference.h"
 
 namespace aoscan {
 namespace {

@@ -16,7 +16,9 @@
 
 #include "fusion/tsdf/raycast.h"
 #include "fusion/tsdf/tsdf_volume.h"
+#include "support/geometry_reference.h"
 #include "support/test_scenes.h"
+#include "support/tracking_reference.h"
 
 namespace aoscan {
 namespace {

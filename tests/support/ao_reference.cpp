@@ -1,0 +1,271 @@
+/// @file ao_reference.cpp
+/// @brief Plain serial per-pixel SSAO (compute_ssao_reference()), written directly from the
+/// formulas of ssao.h: one generic function per estimator family, no precomputed tables.
+#include "ao_reference.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "ao/ssao.h"
+#include "geometry_reference.h"
+
+namespace aoscan {
+namespace {
+
+// Constants of the contract of compute_ssao() (ssao.cpp uses the same values).
+constexpr float kHalfPiF = 1.57079632679490f;
+/// Largest disk radius in pixels.
+constexpr float kMaxRadiusPx = 160.0f;
+/// Alchemy: epsilon of the 1 / (d^2 + eps r_s^2) term, relative to r_s^2.
+constexpr float kAlchemyEpsilon = 0.01f;
+/// Order in which the pixels of a 2x2 block are tried at stride 2 (rotating with the frame).
+constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
+
+float smoothstep01(float d, float t_max) {
+  const float u = std::min(std::max(d / t_max, 0.0f), 1.0f);
+  return u * u * (3.0f - 2.0f * u);
+}
+
+int pattern_class(int x, int y) {
+  return (x & 3) + kSsaoPatternTile * (y & 3);
+}
+
+/// Nearest pixel of an offset in units of the disk radius.
+int offset_px(int centre, float offset, float radius_px) {
+  return centre + static_cast<int>(std::floor(offset * radius_px + 0.5f));
+}
+
+/// Alchemy's area factor of a sample at camera-frame vertex q with raycast normal n_q:
+/// 1 / max(cos theta_q, min_cos), cos theta_q = n_q . (-q / |q|).
+float area_factor(const Eigen::Vector3f& q, const Eigen::Vector3f& n_q, float min_cos) {
+  return 1.0f / std::max(min_cos, -n_q.dot(q) / q.norm());
+}
+
+/// Everything a per-pixel evaluation needs, fixed for the frame.
+struct Setup {
+  const PointMaps* maps;
+  const SsaoPattern* pattern;
+  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
+  float area_min_cos;
+};
+
+/// One pixel's SSAO and the share of its samples that were counted.
+struct PixelAo {
+  float ao;
+  float coverage;
+};
+
+/// The samples of pixel (x, y): fetch() gives the vertex under a pattern offset, or false when
+/// the sample is not counted (outside the image, on the pixel itself, on a pixel without a
+/// surface or on p), and counts the ones it gives.
+struct Sampler {
+  const PointMaps& maps;
+  int x, y;
+  Eigen::Vector3f p;
+  float radius_x, radius_y;
+  int counted = 0;
+
+  bool fetch(const Eigen::Vector2f& o, Eigen::Vector3f& q) {
+    const int sx = offset_px(x, o.x(), radius_x);
+    const int sy = offset_px(y, o.y(), radius_y);
+    if (!maps.vertices.contains(sx, sy) || (sx == x && sy == y)) return false;
+    q = maps.vertices(sx, sy);
+    if (!(q.z() > 0.0f) || !q.allFinite()) return false;
+    if (!((q - p).squaredNorm() > 0.0f)) return false;
+    ++counted;
+    return true;
+  }
+};
+
+/// Horizon and heightfield estimators: the GTAO slices of the pixel with SSAO normal n.
+float slice_estimators_ao(const Setup& s, Sampler& sampler, const Eigen::Vector3f& n) {
+  const SsaoPattern& pat = *s.pattern;
+  const Eigen::Vector3f& p = sampler.p;
+  const int cls = pattern_class(sampler.x, sampler.y);
+  const Eigen::Vector3f view = -p.normalized();
+  float visibility = 0.0f, open = 0.0f;
+  for (int sl = 0; sl < pat.slices; ++sl) {
+    const Eigen::Vector2f d2 = pat.slice_dirs[cls * pat.slices + sl];
+    const Eigen::Vector3f dir(d2.x(), d2.y(), 0.0f);
+    const Eigen::Vector3f ortho = (dir - dir.dot(view) * view).normalized();
+    const Eigen::Vector3f axis = ortho.cross(view).normalized();
+    const Eigen::Vector3f proj_n = n - axis * n.dot(axis);
+    const float proj_len = proj_n.norm();
+    if (!(proj_len > 1e-6f)) continue;
+    const float cos_n = std::clamp(proj_n.dot(view) / proj_len, 0.0f, 1.0f);
+    const float n_ang = (ortho.dot(proj_n) < 0.0f ? -1.0f : 1.0f) * std::acos(cos_n);
+    // Cosine-weighted measure of the slice directions between the view vector and angle a.
+    auto arc = [&](float a) {
+      return 0.25f * (cos_n + 2.0f * a * std::sin(n_ang) - std::cos(2.0f * a - n_ang));
+    };
+    // What the slice sees with nothing above the tangent plane: not 1 per slice off the view
+    // axis (only the mean over slice directions is), so the AO is the ratio of the two.
+    open += proj_len * (arc(n_ang + kHalfPiF) + arc(n_ang - kHalfPiF));
+    if (pat.estimator == AoEstimator::kHeightfield) {
+      for (int side = 0; side < 2; ++side) {
+        const float sign = side == 0 ? 1.0f : -1.0f;
+        float horizon = n_ang + sign * kHalfPiF;  // the tangent plane
+        float slice_side = arc(horizon);
+        for (int k = 0; k < pat.steps; ++k) {
+          Eigen::Vector3f q;
+          if (!sampler.fetch(pat.offsets[cls * pat.samples + (sl * 2 + side) * pat.steps + k], q))
+            continue;
+          const Eigen::Vector3f lowered = q - p - n * (s.bias * p.z());
+          if (!(lowered.norm() > 0.0f)) continue;
+          const float angle =
+              sign * std::acos(std::clamp(lowered.dot(view) / lowered.norm(), -1.0f, 1.0f));
+          if (!(std::abs(angle) < std::abs(horizon))) continue;
+          // Directions between the old and the new horizon hit this sample's surface.
+          const float rho = smoothstep01((q - p).norm(), s.t_max_m);
+          slice_side -= (1.0f - rho) * (arc(horizon) - arc(angle));
+          horizon = angle;
+        }
+        visibility += proj_len * slice_side;
+      }
+      continue;
+    }
+    float h[2];
+    for (int side = 0; side < 2; ++side) {
+      const float low = std::cos(side == 0 ? n_ang + kHalfPiF : n_ang - kHalfPiF);
+      float best = low;
+      for (int k = 0; k < pat.steps; ++k) {
+        Eigen::Vector3f q;
+        if (!sampler.fetch(pat.offsets[cls * pat.samples + (sl * 2 + side) * pat.steps + k], q))
+          continue;
+        const float dist = (q - p).norm();
+        const float rho = smoothstep01(dist, s.t_max_m);
+        best = std::max(best, low + ((q - p).dot(view) / dist - low) * (1.0f - rho));
+      }
+      h[side] = std::acos(std::min(best, 1.0f));
+    }
+    const float h0 = n_ang + std::min(h[0] - n_ang, kHalfPiF);
+    const float h1 = n_ang + std::max(-h[1] - n_ang, -kHalfPiF);
+    visibility += proj_len * (arc(h0) + arc(h1));
+  }
+  if (!(open > 0.0f)) return 1.0f;
+  return std::clamp(visibility / open, 0.0f, 1.0f);
+}
+
+/// Paper, obscurance and alchemy estimators: the mean over the counted point samples.
+float point_estimators_ao(const Setup& s, Sampler& sampler, const Eigen::Vector3f& n) {
+  const SsaoPattern& pat = *s.pattern;
+  const PointMaps& maps = *s.maps;
+  const Eigen::Vector3f& p = sampler.p;
+  const int cls = pattern_class(sampler.x, sampler.y);
+  float sum = 0.0f;
+  for (int k = 0; k < pat.samples; ++k) {
+    Eigen::Vector3f q;
+    const Eigen::Vector2f& o = pat.offsets[cls * pat.samples + k];
+    if (!sampler.fetch(o, q)) continue;
+    const Eigen::Vector3f v = q - p;
+    const float dist = v.norm();
+    const float rho = smoothstep01(dist, s.t_max_m);
+    const float height = n.dot(v) - s.bias * p.z();  // above the tangent plane, less the bias
+    const float c = height / dist;
+    switch (pat.estimator) {
+      case AoEstimator::kPaper:  // Eq. 3-5
+        sum += rho * (1.0f - std::max(n.dot(v) / dist, 0.0f));
+        break;
+      case AoEstimator::kObscurance:
+        sum += std::max(c, 0.0f) * (1.0f - rho);
+        break;
+      case AoEstimator::kAlchemy: {
+        float term = s.radius_m * std::max(height, 0.0f) /
+                     (v.squaredNorm() + kAlchemyEpsilon * s.radius_m * s.radius_m);
+        // The sample's pixel covers surface area in proportion to 1 / cos theta_q.
+        if (s.area_min_cos < 1.0f && height > 0.0f)
+          term *= area_factor(q,
+                              maps.normals(offset_px(sampler.x, o.x(), sampler.radius_x),
+                                           offset_px(sampler.y, o.y(), sampler.radius_y)),
+                              s.area_min_cos);
+        sum += term;
+        break;
+      }
+      case AoEstimator::kHorizon:
+      case AoEstimator::kHeightfield:
+        break;
+    }
+  }
+  if (sampler.counted == 0) return 1.0f;
+  const float mean = sum / static_cast<float>(sampler.counted);
+  return std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f);
+}
+
+/// The SSAO of pixel (x, y) and its coverage.
+PixelAo reference_pixel_ao(const Setup& s, int x, int y) {
+  const PointMaps& maps = *s.maps;
+  const SsaoPattern& pat = *s.pattern;
+  const Eigen::Vector3f p = maps.vertices(x, y);
+  const Eigen::Vector3f n = maps.normals(x, y);  // the SSAO normal (smoothed map)
+  // The disk's radius: r_s, or t_max for the heightfield estimator, which marches out to where
+  // rho reaches 1.
+  const float disk_m = pat.estimator == AoEstimator::kHeightfield ? s.t_max_m : s.radius_m;
+  Sampler sampler{maps, x, y, p, std::min(s.fx * disk_m / p.z(), kMaxRadiusPx),
+                  std::min(s.fy * disk_m / p.z(), kMaxRadiusPx)};
+  const bool slices =
+      pat.estimator == AoEstimator::kHorizon || pat.estimator == AoEstimator::kHeightfield;
+  const float ao =
+      slices ? slice_estimators_ao(s, sampler, n) : point_estimators_ao(s, sampler, n);
+  return {ao, static_cast<float>(sampler.counted) / static_cast<float>(pat.samples)};
+}
+
+}  // namespace
+
+void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
+                            std::uint64_t frame_index, Image<float>& ao, Image<float>& weight) {
+  const int w = maps.vertices.width();
+  const int h = maps.vertices.height();
+  ao.resize(w, h, 0.0f);
+  weight.resize(w, h, 0.0f);
+  if (w == 0 || h == 0 || maps.normals.width() != w || maps.normals.height() != h) return;
+  const SsaoPattern pattern = make_ssao_pattern(config, frame_index);
+  PointMaps smoothed_maps;
+  if (config.normal_radius_px > 0)
+    smooth_model_normals_reference(maps, config.normal_radius_px,
+                                   static_cast<float>(config.normal_max_distance_m),
+                                   smoothed_maps);
+  const PointMaps& maps_in = config.normal_radius_px > 0 ? smoothed_maps : maps;
+  const Setup setup{&maps_in,
+                    &pattern,
+                    static_cast<float>(maps_in.intrinsics.fx),
+                    static_cast<float>(maps_in.intrinsics.fy),
+                    static_cast<float>(config.radius_m),
+                    static_cast<float>(config.t_max_m),
+                    static_cast<float>(config.d_min_m),
+                    static_cast<float>(config.d_max_m),
+                    static_cast<float>(config.bias),
+                    static_cast<float>(config.coverage_power),
+                    static_cast<float>(config.area_min_cos)};
+  auto valid = [&](int x, int y) {
+    return maps_in.vertices.contains(x, y) &&
+           ssao_pixel_valid(maps_in.vertices(x, y), maps_in.normals(x, y));
+  };
+  const int stride = config.ssao_stride_px <= 1 ? 1 : 2;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (!valid(x, y)) continue;
+      // The pixel of this pixel's block that is evaluated this frame.
+      int ex = x, ey = y;
+      if (stride == 2) {
+        for (int i = 3; i >= 0; --i) {
+          const int* o = kBlockOrder[(frame_index % 4 + i) & 3];
+          if (valid(x - x % 2 + o[0], y - y % 2 + o[1]))
+            ex = x - x % 2 + o[0], ey = y - y % 2 + o[1];
+        }
+      }
+      const PixelAo r = reference_pixel_ao(setup, ex, ey);
+      ao(x, y) = r.ao;
+      if (ex == x && ey == y) {
+        float w_px = view_weight(maps_in.vertices(x, y), maps_in.normals(x, y), setup.d_min_m,
+                                 setup.d_max_m);
+        if (setup.coverage_power > 0.0f)
+          w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);
+        weight(x, y) = w_px;
+      }
+    }
+  }
+}
+
+}  // namespace aoscan
