@@ -1,6 +1,7 @@
 /// @file preprocess_test.cpp
 /// @brief Tests for src/fusion/preprocess.cpp: raw depth to metres, border-outlier removal (fast ==
-/// reference bit for bit, analytic cases of paper 000 Sec. 6), the fused pass and the whole chain.
+/// reference bit for bit, analytic cases of Sabbadin et al. 2016 Sec. 6), the fused pass and the
+/// whole chain.
 #include "fusion/preprocess/preprocess.h"
 
 #include <chrono>
