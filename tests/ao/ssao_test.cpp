@@ -13,12 +13,12 @@
 #include <tbb/global_control.h>
 
 #include "fusion/tracking/icp.h"
+#include "sim/synth_camera.h"
 #include "support/ao_test_util.h"
 
 namespace aoscan {
 namespace {
 
-using test::look_at;
 using test::Plane;
 using test::render_planes;
 using test::small_camera;

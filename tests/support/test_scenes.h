@@ -15,6 +15,7 @@
 #include "core/intrinsics.h"
 #include "core/pose.h"
 #include "geometry/point_maps.h"
+#include "sim/synth_camera.h"
 
 namespace aoscan {
 namespace test {
@@ -138,17 +139,9 @@ inline DepthPyramid render_pyramid(const Scene& scene, const Intrinsics& k,
   return pyramid;
 }
 
-/// A camera at `eye` looking at `target` with the image y axis roughly along `down`.
-inline Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
-                    const Eigen::Vector3d& down = Eigen::Vector3d(0, 1, 0)) {
-  const Eigen::Vector3d z = (target - eye).normalized();
-  const Eigen::Vector3d x = down.cross(z).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d R;
-  R.col(0) = x;
-  R.col(1) = y;
-  R.col(2) = z;
-  return Pose(R, eye);
+/// A camera at `eye` looking at `target` in these scenes' y-down world (world up is -y).
+inline Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  return aoscan::look_at(eye, target, -Eigen::Vector3d::UnitY());
 }
 
 /// A small rigid motion: rotation by `angle_deg` about `axis`, then translation `t`.
