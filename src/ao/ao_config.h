@@ -11,20 +11,21 @@ namespace aoscan {
 enum class AoIntegration { kMvao, kMean, kLast };
 /// Which depth the SSAO runs on (contract key ao.input).
 enum class AoInput { kRaycast, kRaw };
-/// Per-sample SSAO estimator (see src/ao/ssao.h): paper 000 Eq. 3-5 as printed; obscurance form
-/// (only samples above the tangent plane occlude, weighted by elevation and 1 - rho); Alchemy
-/// (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice integral with rho);
-/// heightfield (Eq. 1 integrated exactly on each slice's height profile up to t_max).
+/// Per-sample SSAO estimator (see src/ao/ssao.h): Sabbadin et al. 2016 Eq. 3-5 as printed;
+/// obscurance form (only samples above the tangent plane occlude, weighted by elevation and
+/// 1 - rho); Alchemy (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice
+/// integral with rho); heightfield (Eq. 1 integrated exactly on each slice's height profile up to
+/// t_max).
 enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon, kHeightfield };
 
-/// Screen-space AO and the multi-view AO grid (paper 000 Sec. 4 and 6).
+/// Screen-space AO and the multi-view AO grid (Sabbadin et al. 2016 Sec. 4 and 6).
 struct AoConfig {
   double radius_m = 0.1;  ///< r_s: radius of the sampling sphere (m)
   double t_max_m = 0.2;   ///< t_max: falloff distance of rho (m)
   /// N: samples per pixel. 16 (not the paper's 32): with stride 2 and MVAO the accumulated AO
-  /// correlates equally with the ray-traced reference (exact corner, Pearson r 0.920 vs 0.921; 8
-  /// gives 0.921, but a single frame's r drops 0.911 -> 0.908 -> 0.905; noisy corner through the
-  /// whole pipeline 0.861 vs 0.862), at half the SSAO cost.
+  /// correlates with the ray-traced reference as well as with 32, exact or through the whole
+  /// pipeline, at half the SSAO cost (8 does too once accumulated, but a single frame's
+  /// correlation drops with every halving); see BENCHMARKS.md.
   int samples = 16;
   double d_min_m = 0.4;        ///< w_d: minimum normalisation depth (m)
   double d_max_m = 3.0;        ///< w_d: maximum normalisation depth (m)
@@ -43,31 +44,33 @@ struct AoConfig {
   /// tangent plane beyond bias * depth (McGuire et al. 2011's beta, scaled with the point's depth
   /// like their z_C beta), so the residual bumps of a fused noisy surface do not read as occluders.
   /// 0.0035: with the whole normal map smoothed (normal_radius_px), the tangent planes are flat
-  /// enough for a lower bias than the 0.005 of raw normals: noisy corner r +0.003 to +0.004 (3
-  /// seeds), room +0.000, exact-depth corner +0.005 (0.0025: room -0.002; 0.0065: all lower); see
-  /// BENCHMARKS.md.
+  /// enough for a lower bias than the 0.005 of raw normals: the noisy and the exact-depth corner
+  /// correlate better with the reference and the room no worse (lower: the room loses; higher:
+  /// every scene loses); see BENCHMARKS.md.
   double bias = 0.0035;
   /// Coverage weight (in the spirit of the paper's border weight w_b, Eq. 12): in mvao mode a
   /// pixel's weight w_d * w_n is multiplied by coverage^coverage_power, coverage = the share of
   /// its SSAO samples that fell inside the image on valid pixels (samples off the image or in
-  /// holes count as open, so such a pixel's AO is too light). 0 = off. 4: noisy corner through the
-  /// pipeline r 0.862 -> 0.865 (1: 0.864); see BENCHMARKS.md.
+  /// holes count as open, so such a pixel's AO is too light). 0 = off. 4: the noisy corner through
+  /// the pipeline correlates better than without it, and slightly better than with 1; see
+  /// BENCHMARKS.md.
   double coverage_power = 4.0;
   /// The mesh export reads the grid through cells of mesh_cell_factor^3 grid cells (their sums
   /// added, i.e. the AO averaged over mesh_cell_factor * cell size) with trilinear interpolation
   /// between those; the live view keeps the grid's own cells. 1 = the grid's cells. 4 (3.1 cm
-  /// with the default grid, a third of r_s): noisy corner r 0.865 -> 0.890 (3: 0.886), the fused
-  /// surface's small bumps average out; see BENCHMARKS.md.
+  /// with the default grid, a third of r_s): the fused surface's small bumps average out, so the
+  /// noisy corner's mesh AO correlates clearly better than with 1 (and a little better than with
+  /// 3); see BENCHMARKS.md.
   int mesh_cell_factor = 4;
   /// SSAO takes at each evaluated pixel the normalised sum of the raycast normals within
   /// normal_radius_px pixels whose vertices lie within normal_max_distance_m of the pixel's own
   /// (the same surface, not the one behind a depth jump); 0 = the raycast's own normal. The
   /// raycast normal is the TSDF gradient at the nearest voxel, whose few-degree noise on a fused
   /// noisy surface tilts the tangent plane, so that samples a few centimetres away rise above or
-  /// sink below it by more than the bias. 2 px within 4 cm: noisy room r 0.790 -> 0.922, noisy
-  /// corner +0.009 to +0.011 (3 seeds); see BENCHMARKS.md. The whole normal map is smoothed
-  /// once per frame (smooth_model_normals()), so the samples' area factor (area_min_cos) reads
-  /// the smoothed normals too: noisy corner +0.001 (3 seeds), room +0.005, exact corner +0.002.
+  /// sink below it by more than the bias. 2 px within 4 cm: the noisy room correlates far better
+  /// with the reference, the noisy corner somewhat better; see BENCHMARKS.md. The whole normal map
+  /// is smoothed once per frame (smooth_model_normals()), so the samples' area factor
+  /// (area_min_cos) reads the smoothed normals too, a small gain in every scene.
   int normal_radius_px = 2;
   double normal_max_distance_m = 0.04;
   /// Alchemy: each sample's term is divided by max(cos theta_q, area_min_cos), theta_q the angle
@@ -75,14 +78,14 @@ struct AoConfig {
   /// sample stands for the surface area its pixel covers, which grows as 1 / cos theta_q, so an
   /// occluder seen at a grazing angle (a few pixels wide) would otherwise count far less than the
   /// same occluder seen face-on; the floor keeps single grazing pixels from dominating. 1 = off
-  /// (McGuire et al.'s plain screen-area mean). 0.5, on top of the smoothed normal: noisy corner r
-  /// +0.002 to +0.005 (3 seeds), noisy room +0.012 (0.2: worse, 0.7: alike); see BENCHMARKS.md.
+  /// (McGuire et al.'s plain screen-area mean). 0.5, on top of the smoothed normal: the noisy
+  /// corner and room correlate better with the reference (0.2: worse, 0.7: alike); see
+  /// BENCHMARKS.md.
   double area_min_cos = 0.5;
   /// Live only (a camera or `--realtime`): while frames are dropped in front of tracking, SSAO runs
   /// on every 3rd, 5th, ... tracked frame, up to this interval (odd; 1 = every frame always); see
-  /// pipeline/ao_load_shedder.h. 3: RedKitchen paced at 30 Hz on 2 cores (`--realtime`), frames
-  /// dropped in front of tracking 18 / 20 against 20 / 37 with 1 (two alternating pairs); see
-  /// BENCHMARKS.md.
+  /// pipeline/ao_load_shedder.h. 3: RedKitchen paced at 30 Hz on 2 cores (`--realtime`) drops
+  /// fewer frames in front of tracking than with 1 (two alternating pairs); see BENCHMARKS.md.
   int live_max_interval = 3;
 
   template <class V>

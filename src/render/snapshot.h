@@ -24,8 +24,8 @@ struct SnapshotOptions {
 };
 
 /// Writes `DIR/<view>_<sequence, 6 digits>.png` for each view. Costs one composite plus one PNG
-/// encode per view (a few tens of ms for five VGA views): call it off the fusion path (the render
-/// thread or the output stage). Not thread-safe: one caller.
+/// encode per view, too slow for the fusion path: call it off that path (the render thread or the
+/// output stage). Not thread-safe: one caller.
 class SnapshotWriter {
  public:
   /// Creates the folder; throws usage_error naming it when it cannot be created, usage_error when

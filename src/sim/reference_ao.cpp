@@ -1,5 +1,5 @@
 /// @file reference_ao.cpp
-/// @brief Stratified cosine-weighted ray-traced obscurance (paper 000 Eq. 1).
+/// @brief Stratified cosine-weighted ray-traced obscurance (Sabbadin et al. 2016 Eq. 1).
 #include "sim/reference_ao.h"
 
 #include <algorithm>

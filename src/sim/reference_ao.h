@@ -1,6 +1,6 @@
 /// @file reference_ao.h
-/// @brief Ray-traced reference obscurance (paper 000 Eq. 1) at a surface point, for measuring the
-/// screen-space estimators against ground truth.
+/// @brief Ray-traced reference obscurance (Sabbadin et al. 2016 Eq. 1) at a surface point, for
+/// measuring the screen-space estimators against ground truth.
 ///
 /// Kept independent of any scene type (the ao module depends on core only): the caller passes a
 /// ray caster, e.g. a lambda around capture's AnalyticScene::intersect.

@@ -134,21 +134,6 @@ Rig rig_for(const std::string& scene) {
   throw usage_error("no trajectory for synthetic scene '" + printable(scene) + "'");
 }
 
-/// T_world_camera looking from `eye` at `target` (world z up), rolled by `roll_rad` about the
-/// optical axis.
-Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, double roll_rad) {
-  const Eigen::Vector3d z = (target - eye).normalized();
-  const Eigen::Vector3d x0 = z.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d y0 = z.cross(x0);
-  const double c = std::cos(roll_rad);
-  const double s = std::sin(roll_rad);
-  Eigen::Matrix3d R;
-  R.col(0) = c * x0 + s * y0;
-  R.col(1) = -s * x0 + c * y0;
-  R.col(2) = z;
-  return Pose(R, eye);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Rendering
 
@@ -330,6 +315,20 @@ void render_tile_row(const RenderSetup& s, int tile_row, Image<std::uint16_t>& d
 
 }  // namespace
 
+Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
+             double roll_rad) {
+  const Eigen::Vector3d z = (target - eye).normalized();
+  const Eigen::Vector3d x0 = z.cross(up).normalized();
+  const Eigen::Vector3d y0 = z.cross(x0);
+  const double c = std::cos(roll_rad);
+  const double s = std::sin(roll_rad);
+  Eigen::Matrix3d R;
+  R.col(0) = c * x0 + s * y0;
+  R.col(1) = -s * x0 + c * y0;
+  R.col(2) = z;
+  return Pose(R, eye);
+}
+
 Intrinsics SynthParams::intrinsics() const {
   Intrinsics k;
   k.width = width;
@@ -442,7 +441,7 @@ Pose synth_camera_pose(const std::string& scene, SynthTrajectory trajectory, std
     target[axis] += 0.04 * wobble(seed, 3 + axis, t, 0.3);
   }
   const double roll_rad = kDegToRad * 1.5 * wobble(seed, 6, t, 0.5);
-  return look_at(eye, target, roll_rad);
+  return look_at(eye, target, Eigen::Vector3d::UnitZ(), roll_rad);
 }
 
 void render_synth_depth(const AnalyticScene& scene, const Intrinsics& intrinsics,

@@ -74,6 +74,12 @@ SynthParams parse_synth_spec(const std::string& spec);
 Pose synth_camera_pose(const std::string& scene, SynthTrajectory trajectory, std::uint64_t seed,
                        double time_s);
 
+/// T_world_camera of a camera at `eye` looking at `target` (camera x right, y down, z forward) with
+/// the world direction `up` pointing up in the image, then rolled by `roll_rad` about the optical
+/// axis. The built-in trajectories use up = +z (the scenes' world).
+Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
+             double roll_rad = 0.0);
+
 /// How to turn ray hits into raw depth.
 struct SynthRenderOptions {
   SynthNoise noise = SynthNoise::kNone;

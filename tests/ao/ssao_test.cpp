@@ -13,6 +13,7 @@
 #include <tbb/global_control.h>
 
 #include "fusion/tracking/icp.h"
+#include "sim/synth_camera.h"
 #include "support/ao_reference.h"
 #include "support/ao_test_util.h"
 #include "support/geometry_reference.h"
@@ -20,7 +21,6 @@
 namespace aoscan {
 namespace {
 
-using test::look_at;
 using test::Plane;
 using test::render_planes;
 using test::small_camera;

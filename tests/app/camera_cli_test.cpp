@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/cli_util.h"
+#include "support/scratch_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -17,10 +18,6 @@ namespace {
 
 using aoscan::testing::CliRun;
 using aoscan::testing::read_text;
-
-fs::path temp_dir(const std::string& name) {
-  return aoscan::testing::scratch_dir("camcli_" + name);
-}
 
 /// Runs `env aoscan args` (stdout and stderr kept in `scratch`).
 CliRun run(const std::string& env, const std::string& args, const fs::path& scratch) {
@@ -50,7 +47,8 @@ fs::path make_dump(const fs::path& dir, int frames) {
 }
 
 TEST(CameraCli, ScanUntilTheKinectIsUnpluggedWritesOutputsAndExitsFour) {
-  const fs::path dir = temp_dir("scan");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("scan");
   const fs::path dump = make_dump(dir, 10);
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const CliRun r =
@@ -73,7 +71,8 @@ TEST(CameraCli, ScanUntilTheKinectIsUnpluggedWritesOutputsAndExitsFour) {
 }
 
 TEST(CameraCli, DevicesListsTheKinectAndAutoScansIt) {
-  const fs::path dir = temp_dir("devices");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("devices");
   const fs::path dump = make_dump(dir, 4);
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const CliRun d = run(fakenect_env(dump), "devices", dir);
@@ -86,7 +85,8 @@ TEST(CameraCli, DevicesListsTheKinectAndAutoScansIt) {
 }
 
 TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
-  const fs::path dir = temp_dir("record");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("record");
   const fs::path dump = make_dump(dir, 12);
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const fs::path out = dir / "kinect";
@@ -107,7 +107,8 @@ TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
 }
 
 TEST(CameraCli, NoCameraAndNonCameraNodesAreExitFourWithOneLine) {
-  const fs::path dir = temp_dir("none");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("none");
   const CliRun v =
       run("", "scan --headless --device v4l2:/dev/null --out '" + (dir / "o").string() + "'", dir);
   EXPECT_EQ(v.exit_code, 4);

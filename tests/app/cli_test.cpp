@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/cli_util.h"
+#include "support/scratch_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -26,11 +27,6 @@ using aoscan::testing::quote;
 using aoscan::testing::read_stats;
 using aoscan::testing::read_text;
 using aoscan::testing::run_aoscan;
-
-/// A fresh empty folder per test.
-fs::path temp_dir(const std::string& name) {
-  return aoscan::testing::scratch_dir("cli_" + name);
-}
 
 /// The error is exactly one line, the last on stderr, starting with "aoscan: error:" and
 /// mentioning `needle` (warnings about skipped frames may come before it).
@@ -70,7 +66,8 @@ void write_png(const fs::path& path, int width, int height, png_uint_32 format) 
 }
 
 TEST(Cli, VersionAndHelp) {
-  const fs::path dir = temp_dir("version");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("version");
   const CliRun v = run_aoscan("--version", dir);
   EXPECT_EQ(v.exit_code, 0);
   EXPECT_NE(v.out.find("aoscan "), std::string::npos);
@@ -82,7 +79,8 @@ TEST(Cli, VersionAndHelp) {
 }
 
 TEST(Cli, UsageErrorsExitTwo) {
-  const fs::path dir = temp_dir("usage");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("usage");
   expect_one_line_error(run_aoscan("", dir), "subcommand");
   EXPECT_EQ(run_aoscan("", dir).exit_code, 2);
   EXPECT_EQ(run_aoscan("replay", dir).exit_code, 2);
@@ -101,7 +99,8 @@ TEST(Cli, UsageErrorsExitTwo) {
 }
 
 TEST(Cli, UnknownSynthSceneOrParameterExitTwo) {
-  const fs::path dir = temp_dir("synth_bad");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("synth_bad");
   const CliRun scene = run_aoscan("replay synth:castle --out " + quote((dir / "o").string()), dir);
   EXPECT_EQ(scene.exit_code, 2);
   expect_one_line_error(scene, "castle");
@@ -114,7 +113,8 @@ TEST(Cli, UnknownSynthSceneOrParameterExitTwo) {
 }
 
 TEST(Cli, MissingFolderAndListExitThree) {
-  const fs::path dir = temp_dir("missing");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("missing");
   const CliRun missing = run_aoscan("replay " + quote((dir / "nope").string()), dir);
   EXPECT_EQ(missing.exit_code, 3);
   expect_one_line_error(missing, (dir / "nope").string());
@@ -132,7 +132,8 @@ TEST(Cli, MissingFolderAndListExitThree) {
 }
 
 TEST(Cli, BadCameraJsonExitsThree) {
-  const fs::path dir = temp_dir("camera");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("camera");
   const fs::path rec = make_recording(dir);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"missing", R"({"fx": 52.5, "fy": 52.5, "cx": 31.5, "depth_scale": 5000})"},
@@ -150,7 +151,8 @@ TEST(Cli, BadCameraJsonExitsThree) {
 }
 
 TEST(Cli, BadFramesAreCountedSkipsOrStrictErrors) {
-  const fs::path dir = temp_dir("frames");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("frames");
   const fs::path rec = make_recording(dir, 10);
   // Frame files are named by sequence: break five of the ten in five different ways.
   std::vector<fs::path> pngs;
@@ -179,7 +181,8 @@ TEST(Cli, BadFramesAreCountedSkipsOrStrictErrors) {
 }
 
 TEST(Cli, NoUsableFrameExitsThree) {
-  const fs::path dir = temp_dir("nousable");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("nousable");
   const fs::path rec = make_recording(dir, 3);
   for (const auto& e : fs::directory_iterator(rec / "depth")) fs::resize_file(e.path(), 10);
   const CliRun r = run_aoscan(
@@ -189,7 +192,8 @@ TEST(Cli, NoUsableFrameExitsThree) {
 }
 
 TEST(Cli, RecordThenReplaySynthetic) {
-  const fs::path dir = temp_dir("record");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("record");
   const fs::path rec = dir / "D";
   const CliRun rec_r =
       run_aoscan("record " + quote("synth:corner?frames=60&noise=kinect&width=160&height=120") +
@@ -228,7 +232,8 @@ TEST(Cli, RecordThenReplaySynthetic) {
 }
 
 TEST(Cli, SigintWritesOutputsAndExitsZero) {
-  const fs::path dir = temp_dir("sigint");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("sigint");
   const fs::path out = dir / "out";
   AoscanProcess run("replay 'synth:corner?frames=100000&width=160&height=120' --headless --out " +
                         quote(out.string()),
@@ -249,9 +254,10 @@ TEST(Cli, SigintWritesOutputsAndExitsZero) {
 }
 
 TEST(Cli, ReplaysRedKitchen) {
+  aoscan::testing::ScratchDir scratch;
   const fs::path data = fs::path(AOSCAN_SHARED_DATA_DIR) / "7scenes-redkitchen";
   if (!fs::exists(data / "depth.txt")) GTEST_SKIP() << "shared data not found at " << data;
-  const fs::path dir = temp_dir("redkitchen");
+  const fs::path dir = scratch.folder("redkitchen");
 #ifdef AOSCAN_SANITIZED
   const int frames = 40;  // the whole recording takes minutes under the sanitizers
 #else
@@ -272,7 +278,8 @@ TEST(Cli, ReplaysRedKitchen) {
 namespace {
 
 TEST(Readme, DocumentsEveryConfigurationKey) {
-  const fs::path dir = temp_dir("readme");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("readme");
   const CliRun config = run_aoscan("config", dir);
   ASSERT_EQ(config.exit_code, 0);
   const std::string readme = read_text(fs::path(AOSCAN_SOURCE_DIR) / "README.md");
@@ -297,7 +304,8 @@ TEST(Readme, DocumentsEveryConfigurationKey) {
 namespace {
 
 TEST(Cli, ReplayIsDeterministicForTheSameThreads) {
-  const fs::path dir = temp_dir("determinism");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("determinism");
   const std::string source = quote(std::string(AOSCAN_SOURCE_DIR) + "/recordings/corner");
   for (const char* run : {"a", "b"}) {
     const CliRun r = run_aoscan("replay " + source + " --headless --threads 2 --frames 60 --out " +

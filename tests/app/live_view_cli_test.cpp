@@ -13,6 +13,7 @@
 
 #include "support/cli_util.h"
 #include "support/private_xvfb.h"
+#include "support/scratch_dir.h"
 // Last: Xlib's macros (Status, Bool, None) must not reach the headers above.
 #include <X11/Xatom.h>
 #include <X11/Xlib.h>
@@ -28,7 +29,6 @@ using aoscan::testing::quote;
 using aoscan::testing::read_stats;
 using aoscan::testing::read_text;
 using aoscan::testing::run_aoscan;
-using aoscan::testing::scratch_dir;
 
 constexpr const char* kSynth = "'synth:corner?frames=8&width=160&height=120'";
 
@@ -131,10 +131,11 @@ void skip_or_fail_without_window(const aoscan::testing::CliRun& r) {
 }
 
 TEST(LiveViewCli, NoDisplayFallsBackToHeadlessWithOneWarning) {
+  aoscan::testing::ScratchDir scratch;
   for (const std::string env :
        {"env -u DISPLAY -u WAYLAND_DISPLAY", "env -u WAYLAND_DISPLAY DISPLAY=:bogus.0"}) {
     SCOPED_TRACE(env);
-    const fs::path dir = scratch_dir("live_nodisplay");
+    const fs::path dir = scratch.folder("live_nodisplay");
     const auto r = run_aoscan(
         std::string("replay ") + kSynth + " --no-progress --out " + quote((dir / "out").string()),
         dir, env);
@@ -147,7 +148,8 @@ TEST(LiveViewCli, NoDisplayFallsBackToHeadlessWithOneWarning) {
 }
 
 TEST(LiveViewCli, HeadlessSnapshotsEveryNthFrameAndTheLast) {
-  const fs::path dir = scratch_dir("live_snapshots");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("live_snapshots");
   const auto r =
       run_aoscan(std::string("replay ") + kSynth + " --headless --no-progress --snapshot " +
                      quote((dir / "png").string()) + " --snapshot-every 4 --out " +
@@ -180,9 +182,10 @@ TEST(LiveViewCli, HeadlessSnapshotsEveryNthFrameAndTheLast) {
 }
 
 TEST(LiveViewCli, ReplayWithTheWindowWritesTheSameOutputs) {
+  aoscan::testing::ScratchDir scratch;
   PrivateXvfb x;
   if (!x.running()) GTEST_SKIP() << "no private display: " << x.error();
-  const fs::path dir = scratch_dir("live_window");
+  const fs::path dir = scratch.folder("live_window");
   const auto shown = run_aoscan(std::string("--log-level info replay ") + kSynth +
                                     " --no-progress --out " + quote((dir / "w").string()),
                                 dir, std::string(kWindowEnv) + " DISPLAY=" + x.display());
@@ -205,11 +208,12 @@ TEST(LiveViewCli, ReplayWithTheWindowWritesTheSameOutputs) {
 }
 
 TEST(LiveViewCli, TooOldOpenGlFallsBackToHeadlessWithOneWarning) {
+  aoscan::testing::ScratchDir scratch;
   // Mesa caps the versions it offers at MESA_GL_VERSION_OVERRIDE: the real 3.3 core context
   // request through GLFW and GLX then fails, as on a machine whose driver only has GL 2.1.
   PrivateXvfb x;
   if (!x.running()) GTEST_SKIP() << "no private display: " << x.error();
-  const fs::path dir = scratch_dir("live_oldgl");
+  const fs::path dir = scratch.folder("live_oldgl");
   const std::string display = std::string(kWindowEnv) + " DISPLAY=" + x.display();
   const auto control = run_aoscan(
       std::string("replay ") + kSynth + " --no-progress --out " + quote((dir / "control").string()),
@@ -235,9 +239,10 @@ TEST(LiveViewCli, TooOldOpenGlFallsBackToHeadlessWithOneWarning) {
 }
 
 TEST(LiveViewCli, DisplayClosingMidRunContinuesHeadless) {
+  aoscan::testing::ScratchDir scratch;
   PrivateXvfb x;
   if (!x.running()) GTEST_SKIP() << "no private display: " << x.error();
-  const fs::path dir = scratch_dir("live_display_lost");
+  const fs::path dir = scratch.folder("live_display_lost");
   AoscanProcess run(std::string("replay ") + kLongRealtimeSynth +
                         " --realtime --no-progress --out " + quote((dir / "out").string()),
                     dir, std::string(kWindowEnv) + " DISPLAY=" + x.display());
@@ -273,9 +278,10 @@ TEST(LiveViewCli, DisplayClosingMidRunContinuesHeadless) {
 }
 
 TEST(LiveViewCli, ClosingTheWindowStopsLikeQAndWritesOutputs) {
+  aoscan::testing::ScratchDir scratch;
   PrivateXvfb x;
   if (!x.running()) GTEST_SKIP() << "no private display: " << x.error();
-  const fs::path dir = scratch_dir("live_close");
+  const fs::path dir = scratch.folder("live_close");
   AoscanProcess run(std::string("replay ") + kCloseSynth +
                         " --realtime --no-progress --out " + quote((dir / "out").string()),
                     dir, std::string(kWindowEnv) + " DISPLAY=" + x.display());

@@ -14,6 +14,8 @@
 #include <openvdb/tools/Count.h>
 #include <nlohmann/json.hpp>
 
+#include "support/scratch_dir.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -28,13 +30,6 @@ std::string read_text(const fs::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_volume_cli_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
 }
 
 std::string quote(const std::string& s) {
@@ -69,7 +64,8 @@ std::string replay_args(const fs::path& rec, const fs::path& out) {
 }
 
 TEST(VolumeCli, ReplayWritesAVolumeOpenVdbReads) {
-  const fs::path dir = temp_dir("replay");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("replay");
   const fs::path rec = make_recording(dir);
   const fs::path out = dir / "out";
   const CliResult r = run_cli(replay_args(rec, out) + " --save-volume", dir);
@@ -127,7 +123,8 @@ void expect_one_line_error(const CliResult& r, const std::string& needle) {
 }
 
 TEST(VolumeCli, UnusableOutputPathExitsTwoWithOneLine) {
-  const fs::path dir = temp_dir("bad_out");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("bad_out");
   const fs::path rec = make_recording(dir);
   // --out under a regular file.
   std::ofstream(dir / "file") << "x";

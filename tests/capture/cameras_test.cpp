@@ -23,6 +23,7 @@
 #include "capture/kinect_disparity.h"
 #include "capture/openni2_source.h"
 #include "capture/v4l2_source.h"
+#include "support/scratch_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -33,13 +34,6 @@ namespace aoscan {
 Source* g_openni2_stream_kept_alive = nullptr;
 
 namespace {
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_cam_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 /// Throws, and the message contains `needle`, and is one line.
 template <class F>
@@ -112,8 +106,8 @@ TEST(KinectDisparity, MillimetresToRawIsTheNearestTableEntry) {
 // ---------------------------------------------------------------- fakenect dumps
 
 /// A dump of `frames` synthetic 640x480 frames at 30 Hz.
-fs::path make_dump(const std::string& name, int frames) {
-  const fs::path dir = temp_dir(name) / "dump";
+fs::path make_dump(const testing::ScratchDir& scratch, const std::string& name, int frames) {
+  const fs::path dir = scratch.folder(name) / "dump";
   auto source = open_source("synth:corner?frames=" + std::to_string(frames));
   const FakenectDumpStats stats = write_fakenect_dump(*source, dir.string(), std::nullopt, nullptr);
   EXPECT_EQ(stats.frames_written, static_cast<std::size_t>(frames));
@@ -142,7 +136,8 @@ std::vector<std::uint16_t> read_pgm(const fs::path& path) {
 }
 
 TEST(FakenectDump, WritesTheIndexAndNearestDisparities) {
-  const fs::path dir = make_dump("dump_format", 3);
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = make_dump(scratch, "dump_format", 3);
   const std::vector<std::string> index = read_index(dir);
   ASSERT_EQ(index.size(), 3u);
   EXPECT_EQ(index[0], "d-0.000000-0.pgm");
@@ -217,8 +212,9 @@ std::string read_text(const fs::path& p) {
 }
 
 TEST(Freenect, ReplaysAFakenectDumpThenReportsTheUnplug) {
+  aoscan::testing::ScratchDir scratch;
   if (in_fakenect_child()) GTEST_SKIP() << "parent test";
-  const fs::path dump = make_dump("replay", 6);
+  const fs::path dump = make_dump(scratch, "replay", 6);
   const int rc = run_under_fakenect("FakenectChild.*", dump);
   if (rc == -1) GTEST_SKIP() << "fakenect not installed at " << AOSCAN_FAKENECT_DIR;
   EXPECT_EQ(rc, 0) << read_text(dump.string() + ".log");
@@ -309,7 +305,8 @@ TEST(V4l2Decode, ShortBuffersAndBadGeometryAreCorruptFrames) {
 }
 
 TEST(V4l2Source, MissingNodeAndNonCaptureNodeAreClearDeviceErrors) {
-  const fs::path dir = temp_dir("v4l2");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("v4l2");
   expect_error([&] { open_source("v4l2:" + (dir / "video99").string()); }, ExitCode::kDevice,
                "No such file");
   expect_error([] { open_source("v4l2:/dev/null"); }, ExitCode::kDevice, "not a V4L2 device");
@@ -358,8 +355,9 @@ TEST(OpenNI2, DummyDriverStreamsLiveFramesWithDeviceTimestamps) {
 }
 
 TEST(OpenNI2, UnknownDeviceAndBadRecordingsAreClearErrors) {
+  aoscan::testing::ScratchDir scratch;
   expect_error([] { open_source("openni2:no-such-device"); }, ExitCode::kDevice, "no-such-device");
-  const fs::path dir = temp_dir("oni");
+  const fs::path dir = scratch.folder("oni");
   expect_error([&] { open_source((dir / "missing.oni").string()); }, ExitCode::kBadInput,
                "missing.oni");
   std::ofstream(dir / "garbage.oni") << "this is not an OpenNI recording\n";

@@ -3,24 +3,28 @@
 /// broken files, the steal share between two readings.
 #include "core/host_cpu.h"
 
-#include <filesystem>
-#include <fstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "support/scratch_dir.h"
+
 namespace aoscan {
 namespace {
 
-std::string write_stat(const std::string& name, const std::string& text) {
-  const std::string path = (std::filesystem::temp_directory_path() / name).string();
-  std::ofstream(path) << text;
+/// Writes `text` to the file `name` of `dir`; returns its path.
+std::string write_stat(const testing::ScratchDir& dir, const std::string& name,
+                       const std::string& text) {
+  const std::string path = dir.file(name);
+  testing::write_text(path, text);
   return path;
 }
 
 TEST(HostCpu, SumsTheEightTimesAndTakesTheEighthAsSteal) {
-  const std::string path = write_stat(
-      "aoscan_stat_full", "cpu  100 2 30 400 5 6 7 50 9 10\ncpu0 1 2 3 4 5 6 7 8 9 10\nintr 1\n");
+  aoscan::testing::ScratchDir scratch;
+  const std::string path =
+      write_stat(scratch, "stat_full",
+                 "cpu  100 2 30 400 5 6 7 50 9 10\ncpu0 1 2 3 4 5 6 7 8 9 10\nintr 1\n");
   const auto t = read_host_cpu_times(path);
   ASSERT_TRUE(t.has_value());
   EXPECT_EQ(t->total, 100u + 2 + 30 + 400 + 5 + 6 + 7 + 50);  // guest times are not added
@@ -28,17 +32,19 @@ TEST(HostCpu, SumsTheEightTimesAndTakesTheEighthAsSteal) {
 }
 
 TEST(HostCpu, AKernelWithoutStealReadsAsNone) {
-  const auto t = read_host_cpu_times(write_stat("aoscan_stat_old", "cpu 10 0 5 85\n"));
+  aoscan::testing::ScratchDir scratch;
+  const auto t = read_host_cpu_times(write_stat(scratch, "stat_old", "cpu 10 0 5 85\n"));
   ASSERT_TRUE(t.has_value());
   EXPECT_EQ(t->total, 100u);
   EXPECT_EQ(t->steal, 0u);
 }
 
 TEST(HostCpu, MissingOrBrokenFilesGiveNothing) {
+  aoscan::testing::ScratchDir scratch;
   EXPECT_FALSE(read_host_cpu_times("/nonexistent/aoscan/stat").has_value());
-  EXPECT_FALSE(read_host_cpu_times(write_stat("aoscan_stat_empty", "")).has_value());
-  EXPECT_FALSE(read_host_cpu_times(write_stat("aoscan_stat_cpu0", "cpu0 1 2 3 4\n")).has_value());
-  EXPECT_FALSE(read_host_cpu_times(write_stat("aoscan_stat_short", "cpu 1 2 x\n")).has_value());
+  EXPECT_FALSE(read_host_cpu_times(write_stat(scratch, "stat_empty", "")).has_value());
+  EXPECT_FALSE(read_host_cpu_times(write_stat(scratch, "stat_cpu0", "cpu0 1 2 3 4\n")).has_value());
+  EXPECT_FALSE(read_host_cpu_times(write_stat(scratch, "stat_short", "cpu 1 2 x\n")).has_value());
 }
 
 TEST(HostCpu, StealPercentBetweenTwoReadings) {

@@ -19,6 +19,7 @@
 #include "pipeline/config.h"
 #include "pipeline/processing.h"
 #include "pipeline/session.h"
+#include "support/scratch_dir.h"
 #include "support/synth_frames.h"
 
 namespace aoscan {
@@ -61,12 +62,13 @@ struct RunFiles {
   TriangleMesh mesh;
 };
 
-RunFiles run(const std::string& name, std::vector<DepthFrame> list, const Config& config = {}) {
+/// Replays `list` into the folder `name` of the test's scratch folder and reads the outputs back.
+RunFiles run(const testing::ScratchDir& scratch, const std::string& name,
+             std::vector<DepthFrame> list, const Config& config = {}) {
   ListSource source(std::move(list));
   RunOptions options;
   options.config = config;
-  options.out_dir = (fs::path(::testing::TempDir()) / ("aoscan_bad_input_" + name)).string();
-  fs::remove_all(options.out_dir);
+  options.out_dir = scratch.file(name);
   options.threads = 2;
   std::atomic<bool> stop{false};
   RunFiles files;
@@ -94,9 +96,10 @@ std::size_t lost(const RunFiles& f) {
 }
 
 TEST(BadInput, AllInvalidFramesAreCountedAsLost) {
+  aoscan::testing::ScratchDir scratch;
   std::vector<DepthFrame> list = frames(0, 20);
   for (int i = 8; i < 13; ++i) list[i].depth.fill(0);
-  const RunFiles f = run("invalid", list);
+  const RunFiles f = run(scratch, "invalid", list);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(f.stats["frames_processed"], 20);
   EXPECT_EQ(lost(f), 5u);
@@ -108,12 +111,13 @@ TEST(BadInput, AllInvalidFramesAreCountedAsLost) {
 }
 
 TEST(BadInput, AHandfulOfValidPixelsIsLost) {
+  aoscan::testing::ScratchDir scratch;
   std::vector<DepthFrame> list = frames(0, 16);
   for (int i = 8; i < 11; ++i)  // 48 valid pixels on a sparse 8x6 lattice
     for (int y = 0; y < 240; ++y)
       for (int x = 0; x < 320; ++x)
         if (x % 40 != 20 || y % 40 != 20) list[i].depth(x, y) = 0;
-  const RunFiles f = run("handful", list);
+  const RunFiles f = run(scratch, "handful", list);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 3u);
   EXPECT_EQ(f.trajectory.size(), 13u);
@@ -121,6 +125,7 @@ TEST(BadInput, AHandfulOfValidPixelsIsLost) {
 }
 
 TEST(BadInput, AbsurdRawDepthsAreClippedAndLost) {
+  aoscan::testing::ScratchDir scratch;
   std::vector<DepthFrame> list = frames(0, 16);
   for (int i = 6; i < 8; ++i) list[i].depth.fill(65535);  // the sensor's "invalid"
   for (int i = 8; i < 10; ++i) {                          // 60 m everywhere
@@ -128,7 +133,7 @@ TEST(BadInput, AbsurdRawDepthsAreClippedAndLost) {
     list[i].depth.fill(60000);
   }
   list[10].depth_scale = 1e-30;  // every depth ~1e33 m
-  const RunFiles f = run("absurd", list);
+  const RunFiles f = run(scratch, "absurd", list);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 5u);
   EXPECT_EQ(f.trajectory.size(), 11u);
@@ -137,9 +142,10 @@ TEST(BadInput, AbsurdRawDepthsAreClippedAndLost) {
 }
 
 TEST(BadInput, UnusableDepthScaleStopsWithExitThreeNamingTheFrame) {
+  aoscan::testing::ScratchDir scratch;
   std::vector<DepthFrame> list = frames(0, 10);
   list[6].depth_scale = std::numeric_limits<double>::quiet_NaN();
-  const RunFiles f = run("nan_scale", list);
+  const RunFiles f = run(scratch, "nan_scale", list);
   EXPECT_EQ(f.result.exit_code, ExitCode::kBadInput);
   EXPECT_NE(f.result.error.find("frame 6"), std::string::npos) << f.result.error;
   EXPECT_EQ(f.result.error.find('\n'), std::string::npos);
@@ -149,8 +155,9 @@ TEST(BadInput, UnusableDepthScaleStopsWithExitThreeNamingTheFrame) {
 }
 
 TEST(BadInput, AFarJumpWithoutReturnStaysLostAndIsReported) {
+  aoscan::testing::ScratchDir scratch;
   // 170 frames ahead on the orbit: 1.1 m and 27 degrees away, beyond tracking's reach.
-  const RunFiles f = run("jump", frames(0, 12, 182, 190));
+  const RunFiles f = run(scratch, "jump", frames(0, 12, 182, 190));
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 8u);
   EXPECT_EQ(f.trajectory.size(), 12u);
@@ -158,10 +165,11 @@ TEST(BadInput, AFarJumpWithoutReturnStaysLostAndIsReported) {
 }
 
 TEST(BadInput, AFarJumpAndBackRecovers) {
+  aoscan::testing::ScratchDir scratch;
   std::vector<DepthFrame> list = frames(0, 12, 182, 186);  // 4 frames far ahead ...
   const std::vector<DepthFrame> back = frames(12, 20);     // ... then back where it left off
   list.insert(list.end(), back.begin(), back.end());
-  const RunFiles f = run("jump_back", list);
+  const RunFiles f = run(scratch, "jump_back", list);
   EXPECT_EQ(lost(f), 4u);
   ASSERT_EQ(f.trajectory.size(), 20u);
   const Pose T_truth0_world = test::corner_frame(0).T_world_camera_gt->inverse();
@@ -174,9 +182,10 @@ TEST(BadInput, AFarJumpAndBackRecovers) {
 }
 
 TEST(BadInput, EmptyFirstFramesAreLostAndTheModelStartsAfterThem) {
+  aoscan::testing::ScratchDir scratch;
   std::vector<DepthFrame> list = frames(0, 12);
   for (int i = 0; i < 4; ++i) list[i].depth.fill(0);
-  const RunFiles f = run("empty_start", list);
+  const RunFiles f = run(scratch, "empty_start", list);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 4u);
   ASSERT_EQ(f.trajectory.size(), 8u);
@@ -194,13 +203,14 @@ TEST(BadInput, EmptyFirstFramesAreLostAndTheModelStartsAfterThem) {
 }
 
 TEST(BadInputAo, EmptyRaycastsReachSsaoAndMvaoWithoutHarm) {
+  aoscan::testing::ScratchDir scratch;
   // A raycast range that holds no surface: every model raycast is empty, so SSAO and MVAO get
   // empty maps (frame 0 is fused and its empty raycast goes downstream; frame 1 is tracked
   // against frame 0's own filtered maps, as the second frame of every model is; every later
   // frame has nothing to track against and is lost).
   Config config;
   config.fusion.raycast_max_depth_m = 0.3;
-  const RunFiles f = run("empty_raycast", frames(0, 6), config);
+  const RunFiles f = run(scratch, "empty_raycast", frames(0, 6), config);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 4u);
   ASSERT_EQ(f.trajectory.size(), 2u);
@@ -214,12 +224,13 @@ TEST(BadInputAo, EmptyRaycastsReachSsaoAndMvaoWithoutHarm) {
 }
 
 TEST(BadInputAo, PointsBeyondTheMortonRangeAreCountedNotWrapped) {
+  aoscan::testing::ScratchDir scratch;
   // Cells of 1e-3 / 2^20 m: the Morton range (+-2^20 cells) spans +-1 mm around the world
   // origin, and every surface point lies beyond it.
   Config config;
   config.ao.grid_resolution = 1 << 20;
   config.ao.grid_extent_m = 1e-3;
-  const RunFiles f = run("morton", frames(0, 4), config);
+  const RunFiles f = run(scratch, "morton", frames(0, 4), config);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(f.stats["mvao_grid"]["cells"], 0);
   EXPECT_GT(f.stats["mvao_grid"]["points_out_of_range"].get<std::uint64_t>(), 10000u);
@@ -257,13 +268,11 @@ TriangleMesh run_poisoned(const Config& config, const std::string& out_dir) {
 }
 
 TEST(BadInputAo, NonFiniteMapsNeverReachMeshAo) {
+  aoscan::testing::ScratchDir scratch;
   for (AoInput input : {AoInput::kRaycast, AoInput::kRaw}) {
     Config config;
     config.ao.input = input;
-    const std::string dir =
-        (fs::path(::testing::TempDir()) /
-         (input == AoInput::kRaw ? "aoscan_poison_raw" : "aoscan_poison_raycast"))
-            .string();
+    const std::string dir = scratch.file(input == AoInput::kRaw ? "poison_raw" : "poison_raycast");
     const TriangleMesh mesh = run_poisoned(config, dir);
     ASSERT_GT(mesh.faces.size(), 1000u);
     ASSERT_EQ(mesh.quality.size(), mesh.vertices.size());

@@ -9,13 +9,16 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
 
-std::string write_temp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path) << text;
+/// Writes `text` to the file `name` of `dir`; returns its path.
+std::string write_temp(const testing::ScratchDir& dir, const std::string& name,
+                       const std::string& text) {
+  const std::string path = dir.file(name);
+  testing::write_text(path, text);
   return path;
 }
 
@@ -71,7 +74,8 @@ TEST(Config, CrossFieldValidation) {
 }
 
 TEST(Config, YamlFileNestedAndDotted) {
-  const auto path = write_temp("cfg.yaml",
+  aoscan::testing::ScratchDir scratch;
+  const auto path = write_temp(scratch, "cfg.yaml",
                                "ao:\n  radius_m: 0.3\n  integration: mean\n"
                                "preprocess.outlier_threshold_m: 0.05\n");
   const Config c = load_config(path, {"ao.radius_m=0.4"});  // --set wins over the file
@@ -81,16 +85,18 @@ TEST(Config, YamlFileNestedAndDotted) {
 }
 
 TEST(Config, JsonFile) {
-  const auto path = write_temp("cfg.json", R"({"ao": {"samples": 16, "input": "raw"}})");
+  aoscan::testing::ScratchDir scratch;
+  const auto path = write_temp(scratch, "cfg.json", R"({"ao": {"samples": 16, "input": "raw"}})");
   const Config c = load_config(path, {});
   EXPECT_EQ(c.ao.samples, 16);
   EXPECT_EQ(c.ao.input, AoInput::kRaw);
 }
 
 TEST(Config, BrokenFilesAreUsageErrorsNamingTheFile) {
-  const auto bad_yaml = write_temp("bad.yaml", "ao: [1, 2\n");
-  const auto bad_json = write_temp("bad.json", "{\"ao\": ");
-  const auto bad_key = write_temp("badkey.yaml", "ao:\n  colour: red\n");
+  aoscan::testing::ScratchDir scratch;
+  const auto bad_yaml = write_temp(scratch, "bad.yaml", "ao: [1, 2\n");
+  const auto bad_json = write_temp(scratch, "bad.json", "{\"ao\": ");
+  const auto bad_key = write_temp(scratch, "badkey.yaml", "ao:\n  colour: red\n");
   for (const auto& path : {bad_yaml, bad_json, bad_key, std::string("/nonexistent/cfg.yaml")}) {
     try {
       load_config(path, {});
@@ -103,8 +109,9 @@ TEST(Config, BrokenFilesAreUsageErrorsNamingTheFile) {
 }
 
 TEST(Config, DumpRoundTrips) {
+  aoscan::testing::ScratchDir scratch;
   Config changed = load_config("", {"ao.radius_m=0.15", "ao.integration=last"});
-  const auto path = write_temp("dump.yaml", dump_config(changed));
+  const auto path = write_temp(scratch, "dump.yaml", dump_config(changed));
   const Config back = load_config(path, {});
   EXPECT_EQ(dump_config(back), dump_config(changed));
   EXPECT_DOUBLE_EQ(back.ao.radius_m, 0.15);

@@ -11,16 +11,12 @@
 
 #include <gtest/gtest.h>
 
+#include "support/scratch_dir.h"
+
 namespace fs = std::filesystem;
 
 namespace aoscan {
 namespace {
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_liverec_" + name);
-  fs::remove_all(dir);
-  return dir;
-}
 
 std::size_t listed_frames(const fs::path& dir) {
   std::ifstream in(dir / "depth.txt");
@@ -69,23 +65,24 @@ class PacedCamera : public Source {
 };
 
 TEST(LiveRecorder, ThirtyHertzLosesNothing) {
+  aoscan::testing::ScratchDir scratch;
   // AOSCAN_RECORD_SOAK_S=60 gives the long measurement; the suite runs 2 s.
   const char* env = std::getenv("AOSCAN_RECORD_SOAK_S");
   const double seconds = env ? std::atof(env) : 2.0;
   const auto frames = static_cast<std::size_t>(seconds * 30.0);
   PacedCamera camera(frames, std::chrono::microseconds(33333), false);
-  const fs::path dir = temp_dir("30hz");
+  const fs::path dir = scratch.path("30hz");
   const std::atomic<bool> stop{false};
   const RecordStats stats = record_live_source(camera, dir.string(), std::nullopt, stop);
   EXPECT_EQ(stats.frames_written, frames);
   EXPECT_EQ(stats.frames_dropped, 0u);
   EXPECT_EQ(listed_frames(dir), frames);
-  fs::remove_all(dir);
 }
 
 TEST(LiveRecorder, AWriterThatFallsBehindDropsOldestAndCountsEveryDrop) {
+  aoscan::testing::ScratchDir scratch;
   PacedCamera camera(60, std::chrono::microseconds(0), false);  // far faster than PNG writing
-  const fs::path dir = temp_dir("slow");
+  const fs::path dir = scratch.path("slow");
   const std::atomic<bool> stop{false};
   LiveRecordOptions options;
   options.queue_capacity = 2;
@@ -93,12 +90,12 @@ TEST(LiveRecorder, AWriterThatFallsBehindDropsOldestAndCountsEveryDrop) {
   EXPECT_GT(stats.frames_dropped, 0u);
   EXPECT_EQ(stats.frames_written + stats.frames_dropped, 60u);
   EXPECT_EQ(listed_frames(dir), stats.frames_written);
-  fs::remove_all(dir);
 }
 
 TEST(LiveRecorder, UnplugEndsTheRecordingAfterTheQueuedFramesAreWritten) {
+  aoscan::testing::ScratchDir scratch;
   PacedCamera camera(5, std::chrono::microseconds(0), true);
-  const fs::path dir = temp_dir("unplug");
+  const fs::path dir = scratch.path("unplug");
   const std::atomic<bool> stop{false};
   LiveRecordOptions options;
   options.queue_capacity = 16;  // holds everything: nothing may be lost before the error
@@ -109,22 +106,22 @@ TEST(LiveRecorder, UnplugEndsTheRecordingAfterTheQueuedFramesAreWritten) {
   EXPECT_EQ(stats.frames_dropped, 0u);
   EXPECT_EQ(listed_frames(dir), 5u);
   EXPECT_TRUE(fs::exists(dir / "camera.json"));
-  fs::remove_all(dir);
 }
 
 TEST(LiveRecorder, MaxFramesAndStopRequest) {
+  aoscan::testing::ScratchDir scratch;
   PacedCamera camera(100, std::chrono::microseconds(0), false);
-  const fs::path dir = temp_dir("max");
+  const fs::path dir = scratch.path("max");
   const std::atomic<bool> stop{false};
   LiveRecordOptions options;
   options.queue_capacity = 200;
   EXPECT_EQ(record_live_source(camera, dir.string(), 7, stop, options).frames_written, 7u);
   PacedCamera other(100, std::chrono::microseconds(0), false);
   const std::atomic<bool> stopped{true};
-  EXPECT_EQ(record_live_source(other, temp_dir("stopped").string(), std::nullopt, stopped, options)
-                .frames_written,
-            0u);
-  fs::remove_all(dir);
+  EXPECT_EQ(
+      record_live_source(other, scratch.file("stopped"), std::nullopt, stopped, options)
+          .frames_written,
+      0u);
 }
 
 }  // namespace

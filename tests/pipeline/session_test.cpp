@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fake_source.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
@@ -20,10 +21,11 @@ nlohmann::json read_json(const fs::path& p) {
 }
 
 TEST(Session, WritesStatsJsonWithTheContractKeys) {
+  aoscan::testing::ScratchDir scratch;
   testing::FakeSource source(25);
   source.corrupt_ = {4};
   RunOptions options;
-  options.out_dir = (fs::path(::testing::TempDir()) / "session_stats").string();
+  options.out_dir = scratch.file("session_stats");
   options.threads = 1;
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(source, options, stop);
@@ -58,10 +60,11 @@ TEST(Session, WritesStatsJsonWithTheContractKeys) {
 }
 
 TEST(Session, DeviceLossStillWritesOutputsAndExitsFour) {
+  aoscan::testing::ScratchDir scratch;
   testing::FakeSource source(30);
   source.fail_at_ = 12;
   RunOptions options;
-  options.out_dir = (fs::path(::testing::TempDir()) / "session_unplug").string();
+  options.out_dir = scratch.file("session_unplug");
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(source, options, stop);
   EXPECT_EQ(r.exit_code, ExitCode::kDevice);
@@ -71,10 +74,11 @@ TEST(Session, DeviceLossStillWritesOutputsAndExitsFour) {
 }
 
 TEST(Session, NothingUsableIsBadInput) {
+  aoscan::testing::ScratchDir scratch;
   testing::FakeSource source(3);
   source.corrupt_ = {0, 1, 2};
   RunOptions options;
-  options.out_dir = (fs::path(::testing::TempDir()) / "session_empty").string();
+  options.out_dir = scratch.file("session_empty");
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(source, options, stop);
   EXPECT_EQ(r.exit_code, ExitCode::kBadInput);
@@ -82,9 +86,10 @@ TEST(Session, NothingUsableIsBadInput) {
 }
 
 TEST(Session, UncreatableOutputFolderIsAUsageError) {
+  aoscan::testing::ScratchDir scratch;
   testing::FakeSource source(3);
   RunOptions options;
-  const fs::path file = fs::path(::testing::TempDir()) / "session_file";
+  const fs::path file = scratch.path("session_file");
   std::ofstream(file) << "x";
   options.out_dir = (file / "sub").string();
   std::atomic<bool> stop{false};

@@ -19,18 +19,13 @@
 #include "pipeline/session.h"
 #include "pipeline/view_products.h"
 #include "support/pipeline_reference.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_view_" + name);
-  fs::remove_all(dir);
-  return dir;
-}
 
 /// Width and height of a PNG (0, 0 when unreadable).
 std::pair<int, int> png_size(const fs::path& path) {
@@ -170,8 +165,9 @@ TEST(SurfaceCloud, OnePointPerVoxelWithTheNewestObservedAo) {
 }
 
 TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
-  const fs::path out = fresh_dir("snap_out");
-  const fs::path snaps = fresh_dir("snap_png");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path out = scratch.path("snap_out");
+  const fs::path snaps = scratch.path("snap_png");
   std::unique_ptr<Source> source = open_source("synth:corner?frames=8&width=160&height=120");
   RunOptions options;
   options.out_dir = out.string();
@@ -201,9 +197,10 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
 }
 
 TEST(ViewStage, FullResolutionSnapshotsShowTheHalfResolutionModel) {
+  aoscan::testing::ScratchDir scratch;
   // At 640x480 the model is raycast at 320x240: its views are enlarged, not left empty.
-  const fs::path out = fresh_dir("snap_full_out");
-  const fs::path snaps = fresh_dir("snap_full_png");
+  const fs::path out = scratch.path("snap_full_out");
+  const fs::path snaps = scratch.path("snap_full_png");
   std::unique_ptr<Source> source = open_source("synth:corner?frames=2");
   RunOptions options;
   options.out_dir = out.string();
@@ -383,11 +380,12 @@ RunOptions command_session(const fs::path& out, ViewCommandQueue& commands) {
 }
 
 TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
+  aoscan::testing::ScratchDir scratch;
   std::atomic<bool> stop{false};
   ViewCommandQueue commands;
   commands.push(ViewCommand::kPauseIntegration);  // before the first frame
   ScriptedSource paused(kCorner, commands);
-  const fs::path out = fresh_dir("pause");
+  const fs::path out = scratch.path("pause");
   const SessionResult r = run_session(paused, command_session(out, commands), stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_EQ(r.pipeline.counters.frames_processed, 16u);
@@ -395,7 +393,7 @@ TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
   // the mesh: the same mesh as a one-frame run.
   ViewCommandQueue unused;
   ScriptedSource one("synth:corner?frames=1&width=160&height=120", unused);
-  const SessionResult r1 = run_session(one, command_session(fresh_dir("one"), unused), stop);
+  const SessionResult r1 = run_session(one, command_session(scratch.path("one"), unused), stop);
   ASSERT_EQ(r1.exit_code, ExitCode::kOk) << r1.error;
   EXPECT_GT(r1.mesh.vertices, 0u);
   EXPECT_EQ(r.mesh.vertices, r1.mesh.vertices);
@@ -406,7 +404,7 @@ TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
   resumed.script_ = {{4, ViewCommand::kResumeIntegration}};
   resumed.period_ = 20ms;  // time for the command to arrive while frames remain
   const SessionResult r2 =
-      run_session(resumed, command_session(fresh_dir("resume"), commands2), stop);
+      run_session(resumed, command_session(scratch.path("resume"), commands2), stop);
   ASSERT_EQ(r2.exit_code, ExitCode::kOk) << r2.error;
   // Frames fused after the resume add blocks (blocks are never freed, and the camera moves on to
   // new parts of the scene) and change the mesh.
@@ -415,12 +413,13 @@ TEST(SessionCommands, PauseStopsIntegrationAndResumeRestartsIt) {
 }
 
 TEST(SessionCommands, ResetStartsANewModelAndTrajectory) {
+  aoscan::testing::ScratchDir scratch;
   std::atomic<bool> stop{false};
   ViewCommandQueue commands;
   ScriptedSource source(kCorner, commands);
   source.script_ = {{6, ViewCommand::kResetModel}};
   source.period_ = 20ms;
-  const fs::path out = fresh_dir("reset");
+  const fs::path out = scratch.path("reset");
   const SessionResult r = run_session(source, command_session(out, commands), stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_EQ(r.processing.model_resets, 1u);
@@ -437,10 +436,11 @@ TEST(SessionCommands, ResetStartsANewModelAndTrajectory) {
 }
 
 TEST(SessionCommands, WriteOutputsNowWritesTheMeshMidRun) {
+  aoscan::testing::ScratchDir scratch;
   std::atomic<bool> stop{false};
   ViewCommandQueue commands;
   ScriptedSource source(kCorner, commands);
-  const fs::path out = fresh_dir("write_now");
+  const fs::path out = scratch.path("write_now");
   source.script_ = {{3, ViewCommand::kWriteOutputs}};
   // Frame 8 is read only once mesh.ply and trajectory.txt exist: they came from `s`.
   source.wait_at_ = 8;
@@ -455,11 +455,12 @@ TEST(SessionCommands, WriteOutputsNowWritesTheMeshMidRun) {
 }
 
 TEST(SessionCommands, QuitStopsLikeSigintWithOutputs) {
+  aoscan::testing::ScratchDir scratch;
   std::atomic<bool> stop{false};
   ViewCommandQueue commands;
   ScriptedSource source("synth:corner?frames=100000&width=160&height=120", commands);
   source.script_ = {{5, ViewCommand::kQuit}};
-  const fs::path out = fresh_dir("quit");
+  const fs::path out = scratch.path("quit");
   const SessionResult r = run_session(source, command_session(out, commands), stop);
   EXPECT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_TRUE(r.session.quit_by_user);

@@ -15,6 +15,7 @@
 #include "core/status.h"
 #include "fusion/tsdf/marching_cubes.h"
 #include "pipeline/session.h"
+#include "support/scratch_dir.h"
 #include "support/test_scenes.h"
 
 namespace aoscan {
@@ -24,13 +25,6 @@ namespace fs = std::filesystem;
 
 const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
 constexpr double kPlaneDepthM = 1.0;
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_vdb_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 /// A fronto-parallel plane at kPlaneDepthM fused once from the identity pose.
 TsdfVolume fused_plane() {
@@ -44,8 +38,9 @@ TsdfVolume fused_plane() {
 }
 
 TEST(VolumeExport, FusedPlaneHasExactVoxelsInOpenVdb) {
+  aoscan::testing::ScratchDir scratch;
   const TsdfVolume volume = fused_plane();
-  const fs::path dir = fresh_dir("plane");
+  const fs::path dir = scratch.folder("plane");
   const std::string path = (dir / "volume.vdb").string();
   const VdbWriteStats stats = write_volume(path, volume);
 
@@ -91,8 +86,9 @@ TEST(VolumeExport, FusedPlaneHasExactVoxelsInOpenVdb) {
 }
 
 TEST(VolumeExport, ReadBackVolumeMeshesLikeTheOriginal) {
+  aoscan::testing::ScratchDir scratch;
   const TsdfVolume volume = fused_plane();
-  const fs::path dir = fresh_dir("roundtrip");
+  const fs::path dir = scratch.folder("roundtrip");
   const std::string path = (dir / "volume.vdb").string();
   write_volume(path, volume);
   TsdfVolume loaded{FusionConfig{}};
@@ -118,9 +114,10 @@ TEST(VolumeExport, ReadBackVolumeMeshesLikeTheOriginal) {
 }
 
 TEST(VolumeExport, SessionWritesVolumeAndStats) {
+  aoscan::testing::ScratchDir scratch;
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=4&width=80&height=60");
   RunOptions options;
-  options.out_dir = fresh_dir("session").string();
+  options.out_dir = scratch.folder("session").string();
   options.threads = 1;
   options.save_volume = true;
   std::atomic<bool> stop{false};
@@ -140,9 +137,10 @@ TEST(VolumeExport, SessionWritesVolumeAndStats) {
 }
 
 TEST(VolumeExport, SessionWithoutSaveVolumeWritesNoVolume) {
+  aoscan::testing::ScratchDir scratch;
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
   RunOptions options;
-  options.out_dir = fresh_dir("no_volume").string();
+  options.out_dir = scratch.folder("no_volume").string();
   std::atomic<bool> stop{false};
   const SessionResult r = run_session(*source, options, stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
@@ -152,9 +150,10 @@ TEST(VolumeExport, SessionWithoutSaveVolumeWritesNoVolume) {
 }
 
 TEST(VolumeExport, UnwritableVolumeIsAUsageErrorBeforeTheRun) {
+  aoscan::testing::ScratchDir scratch;
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
   RunOptions options;
-  options.out_dir = fresh_dir("blocked").string();
+  options.out_dir = scratch.folder("blocked").string();
   options.save_volume = true;
   fs::create_directories(fs::path(options.out_dir) / "volume.vdb");  // a folder in the way
   std::atomic<bool> stop{false};
@@ -169,11 +168,12 @@ TEST(VolumeExport, UnwritableVolumeIsAUsageErrorBeforeTheRun) {
 }
 
 TEST(VolumeExport, ALaterSetUpErrorLeavesNoEmptyVolume) {
+  aoscan::testing::ScratchDir scratch;
   std::unique_ptr<Source> source = open_synth_source("synth:corner?frames=2&width=80&height=60");
   RunOptions options;
-  options.out_dir = fresh_dir("later_error").string();
+  options.out_dir = scratch.folder("later_error").string();
   options.save_volume = true;
-  const fs::path in_the_way = fresh_dir("later_error_snapshots") / "a_file";
+  const fs::path in_the_way = scratch.folder("later_error_snapshots") / "a_file";
   std::ofstream(in_the_way) << "not a folder\n";
   options.snapshot_dir = in_the_way.string();  // the snapshot folder cannot be made
   std::atomic<bool> stop{false};

@@ -23,6 +23,7 @@
 #include "render/live_view.h"
 #include "render/render_test_util.h"
 #include "support/private_xvfb.h"
+#include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
@@ -496,9 +497,10 @@ bool gl_library_loaded() {
 }
 
 TEST(LiveViewNoDisplay, NothingLinksLibGl) {
+  aoscan::testing::ScratchDir scratch;
   // GL functions come through glfwGetProcAddress, so no binary needs libGL at load time: a
   // headless run never maps it. (The test binary uses every render function, GLFW included.)
-  const std::string out = ::testing::TempDir() + "/render_tests_ldd.txt";
+  const std::string out = scratch.file("ldd.txt");
   const std::string cmd = "ldd /proc/" + std::to_string(::getpid()) + "/exe > " + out + " 2>&1";
   if (std::system(cmd.c_str()) != 0) GTEST_SKIP() << "ldd is not available";
   std::ifstream in(out);

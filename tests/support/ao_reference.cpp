@@ -1,7 +1,7 @@
 /// @file ao_reference.cpp
 /// @brief Plain serial per-pixel SSAO (compute_ssao_reference()), written directly from the
 /// formulas of ssao.h: one generic function per estimator family, no precomputed tables.
-#include "ao_reference.h"
+#include "support/ao_reference.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "ao/ssao.h"
-#include "geometry_reference.h"
+#include "support/geometry_reference.h"
 
 namespace aoscan {
 namespace {

@@ -66,20 +66,6 @@ inline PointMaps render_planes(const Intrinsics& k, const Pose& T_world_camera,
   return maps;
 }
 
-/// Rotation of a camera at `eye` looking at `target` with world `up` (camera x right, y down,
-/// z forward).
-inline Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
-                    const Eigen::Vector3d& up) {
-  const Eigen::Vector3d z = (target - eye).normalized();
-  const Eigen::Vector3d x = z.cross(up).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d R;
-  R.col(0) = x;
-  R.col(1) = y;
-  R.col(2) = z;
-  return Pose(R, eye);
-}
-
 /// A 320x240 camera (half VGA, fx = fy = 292.5) used by the SSAO tests.
 inline Intrinsics small_camera() {
   Intrinsics k;

@@ -46,14 +46,6 @@ inline std::string quote(const std::string& s) {
   return "'" + s + "'";
 }
 
-/// A fresh empty folder `aoscan_<name>` in the test's temporary directory.
-inline fs::path scratch_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("aoscan_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 /// Occurrences of `needle` in `text`.
 inline std::size_t count(const std::string& text, const std::string& needle) {
   std::size_t n = 0;

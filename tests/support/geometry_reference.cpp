@@ -1,6 +1,6 @@
 /// @file geometry_reference.cpp
 /// @brief Plain serial reference of the normal smoothing.
-#include "geometry_reference.h"
+#include "support/geometry_reference.h"
 
 #include <algorithm>
 

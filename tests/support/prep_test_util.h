@@ -1,17 +1,14 @@
 /// @file prep_test_util.h
 /// @brief Helpers for the preprocessing tests: analytic depth images (plane, sphere), random depth
-/// with holes, and a minimal 16-bit PNG reader for the shared real recordings.
+/// with holes, and where the shared real recording's frames are (read them with io/png_read.h).
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <memory>
 #include <random>
 #include <string>
 #include <vector>
-
-#include <png.h>
 
 #include <Eigen/Core>
 
@@ -71,41 +68,6 @@ inline Image<float> random_depth(int w, int h, std::uint32_t seed, double hole_f
       depth(x, y) = unit(rng) < hole_fraction ? 0.0f : z;
     }
   return depth;
-}
-
-/// Reads a 16-bit greyscale PNG (host byte order). Returns false on any failure.
-inline bool read_png16(const std::string& path, Image<std::uint16_t>& out) {
-  std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!file) return false;
-  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  if (!png) return false;
-  png_infop info = png_create_info_struct(png);
-  if (!info) {
-    png_destroy_read_struct(&png, nullptr, nullptr);
-    return false;
-  }
-  std::vector<png_bytep> rows;
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_read_struct(&png, &info, nullptr);
-    return false;
-  }
-  png_init_io(png, file.get());
-  png_read_info(png, info);
-  if (png_get_bit_depth(png, info) != 16 || png_get_color_type(png, info) != PNG_COLOR_TYPE_GRAY) {
-    png_destroy_read_struct(&png, &info, nullptr);
-    return false;
-  }
-  const std::uint16_t probe = 1;
-  if (*reinterpret_cast<const std::uint8_t*>(&probe) == 1) png_set_swap(png);  // PNG is big-endian
-  const int w = static_cast<int>(png_get_image_width(png, info));
-  const int h = static_cast<int>(png_get_image_height(png, info));
-  out.resize(w, h);
-  rows.resize(static_cast<std::size_t>(h));
-  for (int y = 0; y < h; ++y) rows[y] = reinterpret_cast<png_bytep>(out.row(y));
-  png_read_image(png, rows.data());
-  png_read_end(png, nullptr);
-  png_destroy_read_struct(&png, &info, nullptr);
-  return true;
 }
 
 /// The shared 7-Scenes recording folder (may be absent).

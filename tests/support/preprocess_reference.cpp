@@ -1,6 +1,6 @@
 /// @file preprocess_reference.cpp
 /// @brief Plain scalar references of the border-outlier removal and of the bilateral filter.
-#include "preprocess_reference.h"
+#include "support/preprocess_reference.h"
 
 #include <algorithm>
 #include <cmath>

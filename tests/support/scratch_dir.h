@@ -12,7 +12,8 @@
 
 namespace aoscan::testing {
 
-/// Creates <tmp>/aoscan-<suite>-<test>-<pid> (emptied first) and removes it on destruction.
+/// Creates <tmp>/aoscan-<suite>-<test>-<pid> (emptied first) and removes it on destruction. One per
+/// test at a time: a second one in the same test would share (and empty) the folder.
 class ScratchDir {
  public:
   ScratchDir() {
@@ -32,8 +33,17 @@ class ScratchDir {
   ScratchDir(const ScratchDir&) = delete;
   ScratchDir& operator=(const ScratchDir&) = delete;
 
-  /// Path of `name` inside the folder.
+  /// Path of `name` inside the folder (nothing is created).
   std::string file(const std::string& name) const { return (path_ / name).string(); }
+  /// The same as a path.
+  std::filesystem::path path(const std::string& name) const { return path_ / name; }
+  /// An empty folder `name` inside the folder, emptied first when it exists.
+  std::filesystem::path folder(const std::string& name) const {
+    const std::filesystem::path dir = path_ / name;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+  }
   std::string str() const { return path_.string(); }
 
  private:

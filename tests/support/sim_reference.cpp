@@ -1,6 +1,6 @@
 /// @file sim_reference.cpp
 /// @brief The synthetic depth camera's reference rendering, pixel by pixel.
-#include "sim_reference.h"
+#include "support/sim_reference.h"
 
 namespace aoscan {
 

@@ -1,11 +1,13 @@
 /// @file test_scenes.h
-/// @brief Tiny analytic depth renderer for fusion tests: planes, spheres and axis-aligned boxes
-/// ray-cast into depth images, point maps and pyramids with exact normals.
+/// @brief Analytic depth frames for fusion tests: planes, spheres and axis-aligned boxes (in a
+/// y-down world like a camera's) ray-cast by sim's AnalyticScene into float depth images, point
+/// maps and pyramids with exact normals and optional seeded Gaussian depth noise.
 #pragma once
 
 #include <cmath>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include <Eigen/Core>
@@ -15,6 +17,8 @@
 #include "core/intrinsics.h"
 #include "core/pose.h"
 #include "geometry/point_maps.h"
+#include "sim/synth_camera.h"
+#include "sim/synth_scene.h"
 
 namespace aoscan {
 namespace test {
@@ -33,64 +37,36 @@ struct Box {
   Eigen::Vector3d lo, hi;
 };
 
+/// Extent (metres) of the box that stands for a plane in to_analytic(): depth of the half-space
+/// and half-width along the plane, far beyond any depth the tests render.
+inline constexpr double kPlaneBoxM = 1000.0;
+
 struct Scene {
-  std::vector<Plane> planes;
+  std::vector<Plane> planes;  ///< axis-aligned: each normal is +-1 along one axis
   std::vector<Sphere> spheres;
   std::vector<Box> boxes;
 
-  /// Nearest hit t > 0 along the unit ray o + t d, with the world normal facing the ray origin.
-  bool intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double& t_hit,
-                 Eigen::Vector3d& n_hit) const {
-    t_hit = std::numeric_limits<double>::infinity();
-    auto take = [&](double t, const Eigen::Vector3d& n) {
-      if (t > 1e-9 && t < t_hit) {
-        t_hit = t;
-        n_hit = n.dot(d) > 0 ? Eigen::Vector3d(-n) : n;
-      }
-    };
+  /// The scene as a sim scene for a camera at `eye`: spheres and boxes as they are, each plane as a
+  /// box filling the half-space beyond it seen from `eye` (kPlaneBoxM deep and wide), so that the
+  /// plane is the face the camera sees. Throws std::logic_error for a plane that is not
+  /// axis-aligned or an eye on a plane.
+  AnalyticScene to_analytic(const Eigen::Vector3d& eye) const {
+    AnalyticScene out("test");
     for (const Plane& p : planes) {
-      const double nd = p.normal.dot(d);
-      if (std::abs(nd) > 1e-12) take((p.offset - p.normal.dot(o)) / nd, p.normal);
+      int axis = -1;
+      for (int a = 0; a < 3; ++a)
+        if (std::abs(p.normal[a]) == 1.0) axis = a;
+      if (axis < 0 || p.normal.cwiseAbs().sum() != 1.0 || eye[axis] == p.offset * p.normal[axis])
+        throw std::logic_error("test::Scene: planes must be axis-aligned, off the eye");
+      const double at = p.offset * p.normal[axis];  // the plane is x_axis = at
+      Eigen::Vector3d lo = eye.array() - kPlaneBoxM, hi = eye.array() + kPlaneBoxM;
+      lo[axis] = eye[axis] < at ? at : at - kPlaneBoxM;
+      hi[axis] = eye[axis] < at ? at + kPlaneBoxM : at;
+      out.add_box(lo, hi);
     }
-    for (const Sphere& s : spheres) {
-      const Eigen::Vector3d oc = o - s.centre;
-      const double b = oc.dot(d), c = oc.squaredNorm() - s.radius * s.radius;
-      const double disc = b * b - c;
-      if (disc < 0) continue;
-      const double r = std::sqrt(disc);
-      for (double t : {-b - r, -b + r}) {
-        if (t > 1e-9) {
-          take(t, (o + t * d - s.centre).normalized());
-          break;
-        }
-      }
-    }
-    for (const Box& box : boxes) {
-      double t_near = -std::numeric_limits<double>::infinity();
-      double t_far = std::numeric_limits<double>::infinity();
-      int axis_near = 0, axis_far = 0;
-      bool miss = false;
-      for (int a = 0; a < 3; ++a) {
-        if (std::abs(d[a]) < 1e-15) {
-          if (o[a] < box.lo[a] || o[a] > box.hi[a]) miss = true;
-          continue;
-        }
-        double t0 = (box.lo[a] - o[a]) / d[a], t1 = (box.hi[a] - o[a]) / d[a];
-        if (t0 > t1) std::swap(t0, t1);
-        if (t0 > t_near) t_near = t0, axis_near = a;
-        if (t1 < t_far) t_far = t1, axis_far = a;
-      }
-      if (miss || t_near > t_far) continue;
-      Eigen::Vector3d n = Eigen::Vector3d::Zero();
-      if (t_near > 1e-9) {
-        n[axis_near] = 1;
-        take(t_near, n);
-      } else if (t_far > 1e-9) {
-        n[axis_far] = 1;
-        take(t_far, n);
-      }
-    }
-    return std::isfinite(t_hit);
+    for (const Box& b : boxes) out.add_box(b.lo, b.hi);
+    for (const Sphere& sp : spheres) out.add_sphere(sp.centre, sp.radius);
+    return out;
   }
 };
 
@@ -108,15 +84,18 @@ inline void render(const Scene& scene, const Intrinsics& k, const Pose& T_world_
   std::mt19937 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   const Eigen::Matrix3d& R = T_world_camera.rotation();
+  const AnalyticScene analytic = scene.to_analytic(T_world_camera.translation());
   for (int y = 0; y < k.height; ++y) {
     for (int x = 0; x < k.width; ++x) {
       const Eigen::Vector3d ray_c = k.unproject(double(x), double(y), 1.0);
       const Eigen::Vector3d d = (R * ray_c).normalized();
-      double t = 0;
-      Eigen::Vector3d n = Eigen::Vector3d::Zero();
       const double e = noise_m > 0 ? noise_m * gauss(rng) : 0.0;
-      if (!scene.intersect(T_world_camera.translation(), d, t, n)) continue;
-      const double z = t / ray_c.norm() + e;
+      Hit hit;
+      if (!analytic.intersect(Ray{T_world_camera.translation(), d}, 1e-9,
+                              std::numeric_limits<double>::infinity(), &hit))
+        continue;
+      const Eigen::Vector3d n = hit.normal.dot(d) > 0 ? Eigen::Vector3d(-hit.normal) : hit.normal;
+      const double z = hit.t / ray_c.norm() + e;
       if (z <= 0.05 || z > max_depth_m) continue;
       depth(x, y) = static_cast<float>(z);
       if (maps) {
@@ -138,17 +117,9 @@ inline DepthPyramid render_pyramid(const Scene& scene, const Intrinsics& k,
   return pyramid;
 }
 
-/// A camera at `eye` looking at `target` with the image y axis roughly along `down`.
-inline Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
-                    const Eigen::Vector3d& down = Eigen::Vector3d(0, 1, 0)) {
-  const Eigen::Vector3d z = (target - eye).normalized();
-  const Eigen::Vector3d x = down.cross(z).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d R;
-  R.col(0) = x;
-  R.col(1) = y;
-  R.col(2) = z;
-  return Pose(R, eye);
+/// A camera at `eye` looking at `target` in these scenes' y-down world (world up is -y).
+inline Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  return aoscan::look_at(eye, target, -Eigen::Vector3d::UnitY());
 }
 
 /// A small rigid motion: rotation by `angle_deg` about `axis`, then translation `t`.

@@ -1,6 +1,6 @@
 /// @file tracking_reference.cpp
 /// @brief Plain single-threaded reference of the ICP normal equations.
-#include "tracking_reference.h"
+#include "support/tracking_reference.h"
 
 #include <algorithm>
 

@@ -12,6 +12,7 @@
 #include "io/tum.h"
 #include "sim/synth_scene.h"
 #include "support/cli_util.h"
+#include "support/scratch_dir.h"
 #include "trajectory_eval.h"
 
 namespace aoscan::eval {
@@ -21,14 +22,14 @@ namespace fs = std::filesystem;
 using aoscan::testing::quote;
 using aoscan::testing::read_stats;
 using aoscan::testing::run_aoscan;
-using aoscan::testing::scratch_dir;
 
 TEST(AoAcceptance, NoisyCornerWithTrackingMeetsTheTargetAndMultiViewBeatsTheLastView) {
 #ifdef AOSCAN_SANITIZED
   GTEST_SKIP() << "two 150-frame replays take minutes under the sanitizers; the Release suite "
                   "runs this measurement";
 #endif
-  const fs::path dir = scratch_dir("ao_acceptance");
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("ao_acceptance");
   const fs::path rec = dir / "rec";
   ASSERT_EQ(run_aoscan("record " + quote("synth:corner?frames=150&noise=kinect&seed=1") + " " +
                            quote(rec.string()),

@@ -7,7 +7,8 @@
 
 namespace aoscan {
 
-/// Depth preprocessing: raw units to metres, range clip, border-outlier removal (paper 000 Sec. 6).
+/// Depth preprocessing: raw units to metres, range clip, border-outlier removal (Sabbadin et al.
+/// 2016 Sec. 6).
 struct PreprocessConfig {
   double min_depth_m = 0.4;           ///< nearer depths are invalid
   double max_depth_m = 4.5;           ///< farther depths are invalid
@@ -22,7 +23,7 @@ struct PreprocessConfig {
   /// fixed threshold removes most of every surface beyond about 2.5 m from the tracking depth.
   double tracking_outlier_threshold_per_m2 = 0.004;
   /// Bilateral filter before tracking. Sigmas are PCL KinFu's (4.5 px, 0.03 m); KinFu's radius is
-  /// 6 px (13x13 window), here 2 px (5x5) by default: about 5 ms per VGA frame on one core, and
+  /// 6 px (13x13 window), here 2 px (5x5) by default: a seventh of KinFu's taps per pixel, and
   /// RedKitchen tracks as well as with 7x7. 0 disables the filter.
   int bilateral_radius_px = 2;
   double bilateral_sigma_space_px = 4.5;  ///< spatial Gaussian sigma (pixels)

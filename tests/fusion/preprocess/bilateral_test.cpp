@@ -12,6 +12,7 @@
 
 #include "fusion/preprocess/bilateral.h"
 #include "fusion/preprocess/preprocess.h"
+#include "io/png_read.h"
 #include "support/prep_test_util.h"
 #include "support/preprocess_reference.h"
 
@@ -157,7 +158,8 @@ TEST(Bilateral, RealFrameFastMatchesReference) {
   DepthFrame f;
   f.depth_scale = 1000.0;
   f.intrinsics = test::redkitchen_intrinsics();
-  ASSERT_TRUE(test::read_png16(test::redkitchen_frame(250), f.depth));
+  const Status read = read_grey16_png(test::redkitchen_frame(250), f.depth);
+  ASSERT_TRUE(read.is_ok()) << read.message();
   const PreprocessConfig config;
   Image<float> depth;
   preprocess_depth(f, config, depth);

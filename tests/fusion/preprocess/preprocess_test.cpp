@@ -1,6 +1,7 @@
 /// @file preprocess_test.cpp
 /// @brief Tests for src/fusion/preprocess.cpp: raw depth to metres, border-outlier removal (fast ==
-/// reference bit for bit, analytic cases of paper 000 Sec. 6), the fused pass and the whole chain.
+/// reference bit for bit, analytic cases of Sabbadin et al. 2016 Sec. 6), the fused pass and the
+/// whole chain.
 #include "fusion/preprocess/preprocess.h"
 
 #include <chrono>
@@ -19,6 +20,7 @@
 #include <tbb/global_control.h>
 
 #include "core/status.h"
+#include "io/png_read.h"
 #include "support/prep_test_util.h"
 #include "support/preprocess_reference.h"
 
@@ -353,7 +355,8 @@ TEST(PreprocessRealData, FastEqualsReferenceOnRedKitchen) {
   const PreprocessConfig config;
   std::size_t removed_total = 0, valid_total = 0;
   for (int i = 0; i < 500; i += 25) {
-    ASSERT_TRUE(test::read_png16(test::redkitchen_frame(i), f.depth)) << test::redkitchen_frame(i);
+    const Status read = read_grey16_png(test::redkitchen_frame(i), f.depth);
+    ASSERT_TRUE(read.is_ok()) << read.message();
     Image<float> metres, ref, fast, fused;
     depth_to_metres(f, config, metres);
     const float t = static_cast<float>(config.outlier_threshold_m);
