@@ -395,7 +395,9 @@ SessionResult run_session(Source& source, const SessionOptions& options,
                  result.grid_points_out_of_range);
   const TsdfVolume& volume = processing.reconstruction().volume();
   result.tsdf_blocks = static_cast<std::size_t>(volume.block_count());
-  result.tsdf_memory_mb = static_cast<double>(volume.memory_bytes()) / (1024.0 * 1024.0);
+  const std::size_t tsdf_bytes =
+      volume.memory_bytes() + processing.reconstruction().integrator().memory_bytes();
+  result.tsdf_memory_mb = static_cast<double>(tsdf_bytes) / (1024.0 * 1024.0);
   result.tsdf_capacity_reached = volume.capacity_reached();
   if (view) {
     view->finish(exported.mesh);  // the last set of snapshots shows the final mesh in orbit

@@ -28,6 +28,7 @@
 #include "fusion/tracking/icp.h"
 #include "fusion/tsdf/marching_cubes.h"
 #include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
 
 namespace aoscan {
@@ -207,6 +208,7 @@ RunStats run_kitchen(int max_frames, bool mesh, int kernel_loops = 0) {
   const FusionConfig fusion;
   const TrackingConfig tracking;
   TsdfVolume volume(fusion);
+  TsdfIntegrator integrator;
   RaycastResult model;
   IcpWorkspace workspace;
   Image<std::uint16_t> raw;
@@ -260,7 +262,7 @@ RunStats run_kitchen(int max_frames, bool mesh, int kernel_loops = 0) {
     sum_sq += (pose.translation() - frames[i].T_world_camera_gt.translation()).squaredNorm();
     if (lost_now) continue;
     t0 = Clock::now();
-    volume.integrate(raw_m, kKitchenIntrinsics, pose);
+    integrator.integrate(volume, raw_m, kKitchenIntrinsics, pose);
     stats.ms_integrate.push_back(ms_since(t0));
     t0 = Clock::now();
     raycast(volume, kKitchenIntrinsics, pose, fusion, model,
@@ -284,7 +286,7 @@ RunStats run_kitchen(int max_frames, bool mesh, int kernel_loops = 0) {
          [&] { raycast(volume, kKitchenIntrinsics, pose, fusion, scratch, &raw_m); });
     loop("raycast (no hint)", [&] { raycast(volume, kKitchenIntrinsics, pose, fusion, scratch); });
     loop("icp", [&] { icp(pyramid, model, pose, tracking, workspace); });
-    loop("integrate", [&] { volume.integrate(raw_m, kKitchenIntrinsics, pose); });
+    loop("integrate", [&] { integrator.integrate(volume, raw_m, kKitchenIntrinsics, pose); });
   }
   if (mesh) {
     const auto t0 = Clock::now();

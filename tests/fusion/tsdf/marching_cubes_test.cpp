@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "support/test_scenes.h"
 
 namespace aoscan {
@@ -166,9 +167,10 @@ TEST(MarchingCubes, FusedPlaneLiesOnThePlane) {
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 1.3});
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(scene, k, Pose::identity(), depth);
-  volume.integrate(depth, k, Pose::identity());
+  integrator.integrate(volume, depth, k, Pose::identity());
   const TriangleMesh mesh = extract_mesh(volume, 1.0f);
   ASSERT_GT(mesh.faces.size(), 10000u);
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {

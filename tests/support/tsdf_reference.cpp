@@ -1,0 +1,147 @@
+/// @file tsdf_reference.cpp
+/// @brief Plain reference integration over the public TsdfVolume API.
+#include "support/tsdf_reference.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_set>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/status.h"
+#include "fusion/tsdf/grid_traversal.h"
+
+namespace aoscan {
+namespace test {
+namespace {
+
+bool valid_depth(float d) {
+  return d > 0.0f && d < 1e4f;
+}
+
+Eigen::Vector3i floor_cell(const Eigen::Vector3f& q) {
+  return {floor_to_int(q.x()), floor_to_int(q.y()), floor_to_int(q.z())};
+}
+
+/// The blocks that the truncation band of the valid pixels' rays crosses, each once, in the order
+/// the pixels (raster order) first reach them; allocates those that are new. Fills the stats'
+/// rays and block counts.
+std::vector<int> allocate_band(TsdfVolume& volume, const Image<float>& depth_m,
+                               const Intrinsics& intrinsics, const Pose& T_world_camera,
+                               IntegrateStats& stats) {
+  const Eigen::Matrix3f R = T_world_camera.rotation().cast<float>();
+  const Eigen::Vector3f t = T_world_camera.translation().cast<float>();
+  // Block-grid coordinates q = (p_world / voxel + 0.5) / 8: block floor(q) holds the voxel
+  // nearest to p_world.
+  const float to_grid = 1.0f / (volume.voxel_size_m() * kBlockSize);
+  const Eigen::Vector3f grid_offset = Eigen::Vector3f::Constant(0.5f / kBlockSize);
+  const float fx_inv = static_cast<float>(1.0 / intrinsics.fx);
+  const float fy_inv = static_cast<float>(1.0 / intrinsics.fy);
+  const float cx = static_cast<float>(intrinsics.cx);
+  const float cy = static_cast<float>(intrinsics.cy);
+  const float trunc = volume.truncation_m();
+  const Eigen::Vector3f x_dir = R.col(0) * to_grid;
+  const Eigen::Vector3f origin = t * to_grid + grid_offset;
+  std::vector<int> visible;
+  std::unordered_set<std::uint64_t> seen;
+  auto add = [&](const Eigen::Vector3i& block) {
+    if (block.cwiseAbs().maxCoeff() > TsdfVolume::kMaxBlockCoord) return;
+    if (!seen.insert(TsdfVolume::pack(block)).second) return;
+    const int blocks_before = volume.block_count();
+    const int index = volume.allocate_block(block);
+    if (index < 0) {
+      ++stats.blocks_dropped;
+      return;
+    }
+    if (volume.block_count() > blocks_before) ++stats.blocks_allocated;
+    visible.push_back(index);
+  };
+  for (int y = 0; y < depth_m.height(); ++y) {
+    const float ry = (static_cast<float>(y) - cy) * fy_inv;
+    // The pixel's ray direction in block-grid units per metre of depth: row_dir + rx * x_dir.
+    const Eigen::Vector3f row_dir = (R.col(1) * ry + R.col(2)) * to_grid;
+    for (int x = 0; x < depth_m.width(); ++x) {
+      const float d = depth_m(x, y);
+      if (!valid_depth(d)) continue;
+      ++stats.rays;
+      const float rx = (static_cast<float>(x) - cx) * fx_inv;
+      const Eigen::Vector3f dir = row_dir + rx * x_dir;
+      const float z0 = std::max(d - trunc, 0.5f * d);
+      const float z1 = d + trunc;
+      const Eigen::Vector3f a = dir * z0 + origin;
+      const Eigen::Vector3f b = dir * z1 + origin;
+      constexpr float kLimit = static_cast<float>(TsdfVolume::kMaxBlockCoord);
+      if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
+      traverse_cells(a, b, floor_cell(a), floor_cell(b), add);
+    }
+  }
+  stats.blocks_updated = static_cast<int>(visible.size());
+  return visible;
+}
+
+/// Updates the voxels of one block from the frame (projective TSDF, running average).
+void update_block(TsdfVolume& volume, int index, const Image<float>& depth_m,
+                  const Intrinsics& intrinsics, const Eigen::Matrix3f& R_camera_world,
+                  const Eigen::Vector3f& t_camera_world) {
+  VoxelBlock& blk = volume.block(index);
+  const Eigen::Vector3i base = volume.block_coord(index) * kBlockSize;
+  const float voxel_size = volume.voxel_size_m();
+  const float truncation = volume.truncation_m();
+  const float fx = static_cast<float>(intrinsics.fx);
+  const float fy = static_cast<float>(intrinsics.fy);
+  const float cx = static_cast<float>(intrinsics.cx);
+  const float cy = static_cast<float>(intrinsics.cy);
+  const float max_u = static_cast<float>(depth_m.width()) - 0.5f;
+  const float max_v = static_cast<float>(depth_m.height()) - 0.5f;
+  const float inv_trunc = 1.0f / truncation;
+  for (int z = 0; z < kBlockSize; ++z) {
+    for (int y = 0; y < kBlockSize; ++y) {
+      for (int x = 0; x < kBlockSize; ++x) {
+        const Eigen::Vector3f p_world(static_cast<float>(base.x() + x) * voxel_size,
+                                      static_cast<float>(base.y() + y) * voxel_size,
+                                      static_cast<float>(base.z() + z) * voxel_size);
+        const Eigen::Vector3f p = R_camera_world * p_world + t_camera_world;
+        if (!(p.z() > 0.0f)) continue;
+        const float u = fx * p.x() / p.z() + cx;
+        const float v = fy * p.y() / p.z() + cy;
+        if (!(u >= -0.5f && v >= -0.5f && u < max_u && v < max_v)) continue;
+        const int ui = static_cast<int>(u + 0.5f);
+        const int vi = static_cast<int>(v + 0.5f);
+        const float d = depth_m(ui, vi);
+        if (!valid_depth(d)) continue;
+        const float sdf = d - p.z();
+        if (sdf < -truncation) continue;
+        const float tsdf = std::min(1.0f, sdf * inv_trunc);
+        blk.voxels[voxel_index(x, y, z)].add_observation(tsdf, volume.max_weight());
+      }
+    }
+  }
+}
+
+}  // namespace
+
+IntegrateStats integrate_reference(TsdfVolume& volume, const Image<float>& depth_m,
+                                   const Intrinsics& intrinsics, const Pose& T_world_camera) {
+  IntegrateStats stats;
+  if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
+    throw usage_error("integrate: depth image is " + std::to_string(depth_m.width()) + "x" +
+                      std::to_string(depth_m.height()) + " but the intrinsics are " +
+                      std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+  if (!T_world_camera.finite()) {
+    stats.skipped = true;
+    return stats;
+  }
+  const std::vector<int> visible =
+      allocate_band(volume, depth_m, intrinsics, T_world_camera, stats);
+  const Pose T_camera_world = T_world_camera.inverse();
+  const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
+  const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
+  for (const int index : visible) update_block(volume, index, depth_m, intrinsics, R, t);
+  return stats;
+}
+
+}  // namespace test
+}  // namespace aoscan
