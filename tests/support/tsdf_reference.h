@@ -1,14 +1,17 @@
 /// @file tsdf_reference.h
-/// @brief Plain reference versions of the TSDF kernels (integration so far), written on the
-/// volume's public API: slow, single-threaded, obviously correct; the oracles the
+/// @brief Plain reference versions of the TSDF kernels (integration, raycast, marching cubes),
+/// written on the volume's public API: slow, single-threaded, obviously correct; the oracles the
 /// tests compare the fast library paths with.
 #pragma once
 
 #include "core/image.h"
 #include "core/intrinsics.h"
+#include "core/mesh.h"
 #include "core/pose.h"
+#include "fusion/tsdf/tsdf_config.h"
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
+#include "geometry/point_maps.h"
 
 namespace aoscan {
 namespace test {
@@ -21,6 +24,16 @@ namespace test {
 /// once. Throws usage_error when the depth size differs from the intrinsics.
 IntegrateStats integrate_reference(TsdfVolume& volume, const Image<float>& depth_m,
                                    const Intrinsics& intrinsics, const Pose& T_world_camera);
+
+/// Plain reference of raycast(): single-threaded, a fixed step of `step_voxels` voxels through
+/// the whole depth range, trilinear samples only, no block skipping. Slow.
+void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
+                       const Pose& T_world_camera, const FusionConfig& config, float step_voxels,
+                       RaycastResult& result);
+
+/// Plain reference of extract_mesh(): one serial pass over all cubes, vertices shared through a
+/// map keyed by grid edge. Same vertices and triangles, in a different order.
+TriangleMesh extract_mesh_reference(const TsdfVolume& volume, float min_weight);
 
 }  // namespace test
 }  // namespace aoscan

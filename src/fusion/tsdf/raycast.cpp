@@ -100,7 +100,7 @@ void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matri
   r.maps.normals(x, y) = normal;
 }
 
-/// Everything per frame that both raycasts need.
+/// Everything per frame that the raycast needs.
 struct RaySetup {
   Eigen::Matrix3f R_world_camera;
   Eigen::Matrix3f R_camera_world;
@@ -682,46 +682,6 @@ void raycast_portable(const TsdfVolume& volume, const Intrinsics& intrinsics,
                       const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
                       const Image<float>* depth_hint_m) {
   raycast_impl(volume, intrinsics, T_world_camera, config, result, depth_hint_m, false);
-}
-
-void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
-                       const Pose& T_world_camera, const FusionConfig& config, float step_voxels,
-                       RaycastResult& result) {
-  check_inputs(intrinsics, config);
-  prepare(intrinsics, T_world_camera, result);
-  if (!T_world_camera.finite() || !(step_voxels > 0.0f) ||
-      !within_grid(volume, intrinsics, T_world_camera, config))
-    return;
-  const RaySetup setup(volume, intrinsics, T_world_camera);
-  const float min_depth = static_cast<float>(config.raycast_min_depth_m);
-  const float max_depth = static_cast<float>(config.raycast_max_depth_m);
-  TsdfSampler sampler(volume);
-  for (int y = 0; y < intrinsics.height; ++y) {
-    for (int x = 0; x < intrinsics.width; ++x) {
-      const Ray ray = setup.ray(x, y);
-      const float step = step_voxels * volume.voxel_size_m() / ray.metres_per_s;
-      float prev_s = 0.0f, prev_f = 0.0f;
-      bool prev_valid = false;
-      for (float s = min_depth; s < max_depth; s += step) {
-        float f = 0.0f;
-        if (!sampler.trilinear(ray.origin + s * ray.dir, f)) {
-          prev_valid = false;
-          continue;
-        }
-        if (prev_valid && prev_f >= 0.0f && f < 0.0f) {
-          write_hit(sampler, ray,
-                    refine_crossing(sampler, ray, volume.voxel_size_m(), volume.truncation_m(),
-                                    prev_s, prev_f, s, f),
-                    setup.R_camera_world, result, x, y);
-          break;
-        }
-        prev_s = s;
-        prev_f = f;
-        prev_valid = true;
-      }
-    }
-  }
-  result.hits = count_hits(result.depth_m);
 }
 
 }  // namespace aoscan

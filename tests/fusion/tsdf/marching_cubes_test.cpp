@@ -15,6 +15,7 @@
 
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "support/test_scenes.h"
+#include "support/tsdf_reference.h"
 
 namespace aoscan {
 namespace {
@@ -123,7 +124,7 @@ TEST(MarchingCubes, ParallelExtractionMatchesSerialReference) {
   TsdfVolume volume{FusionConfig{}};
   write_sphere(volume);
   const TriangleMesh fast = extract_mesh(volume, 1.0f);
-  const TriangleMesh reference = extract_mesh_reference(volume, 1.0f);
+  const TriangleMesh reference = test::extract_mesh_reference(volume, 1.0f);
   EXPECT_EQ(fast.vertices.size(), reference.vertices.size());
   EXPECT_EQ(fast.faces.size(), reference.faces.size());
   EXPECT_TRUE(triangle_set(fast) == triangle_set(reference));

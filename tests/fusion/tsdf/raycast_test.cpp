@@ -14,6 +14,7 @@
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "geometry/simd.h"
 #include "support/test_scenes.h"
+#include "support/tsdf_reference.h"
 
 namespace aoscan {
 namespace {
@@ -103,7 +104,7 @@ TEST(Raycast, FastRaycastAgreesWithFixedStepReference) {
   config.raycast_max_depth_m = 3.0;
   RaycastResult fast, reference;
   raycast(fused.volume, small, pose, config, fast);
-  raycast_reference(fused.volume, small, pose, config, 0.25f, reference);
+  test::raycast_reference(fused.volume, small, pose, config, 0.25f, reference);
   int both = 0, disagree_mask = 0;
   std::vector<double> depth_diff, plane_diff;
   for (int y = 0; y < small.height; ++y) {
@@ -234,7 +235,7 @@ TEST(Raycast, RaysCrossingLongEmptySpaceAgreeWithTheReference) {
   config.raycast_max_depth_m = 5.0;
   RaycastResult fast, reference;
   raycast(volume, small, pose, config, fast);
-  raycast_reference(volume, small, pose, config, 0.25f, reference);
+  test::raycast_reference(volume, small, pose, config, 0.25f, reference);
   int both = 0, disagree = 0, far_hits = 0, other_surface = 0;
   std::vector<double> depth_diff;
   for (int y = 0; y < small.height; ++y)
