@@ -56,7 +56,8 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     return step;
   }
   if (integrate || step.new_model) {
-    step.integrate = volume_.integrate(frame.depth_m, intrinsics, step.T_world_camera);
+    step.integrate =
+        integrator_.integrate(volume_, frame.depth_m, intrinsics, step.T_world_camera);
     step.integrated = true;
   }
   if (step.new_model && volume_.block_count() == 0) {
@@ -107,6 +108,7 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
 
 void Reconstruction::reset() {
   volume_.reset();
+  integrator_.reset();
   model_.reset();
   first_frame_reference_.reset();
   T_world_last_ = Pose();

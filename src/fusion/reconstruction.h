@@ -12,6 +12,7 @@
 #include "fusion/reconstruction_config.h"
 #include "fusion/tracking/icp.h"
 #include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
 
 namespace aoscan {
@@ -50,6 +51,8 @@ class Reconstruction {
   void reset();
 
   const TsdfVolume& volume() const { return volume_; }
+  /// The integrator that fuses the frames into volume() (its per-block bookkeeping).
+  const TsdfIntegrator& integrator() const { return integrator_; }
   /// The fused surface (world frame) by marching cubes with vertex normals.
   TriangleMesh extract_mesh() const;
   /// The current tracking reference (null before the first frame and after reset()).
@@ -59,6 +62,7 @@ class Reconstruction {
  private:
   ReconstructionConfig config_;
   TsdfVolume volume_;
+  TsdfIntegrator integrator_;
   IcpWorkspace icp_workspace_;
   std::shared_ptr<const RaycastResult> model_;
   /// The first frame's own filtered maps, tracked against instead of model_ while the model holds

@@ -205,9 +205,11 @@ GridStats Processing::grid_stats() const {
 }
 
 TsdfStats Processing::tsdf_stats() const {
+  // The integrator's per-block bookkeeping is part of what the volume costs.
   const TsdfVolume& volume = reconstruction_.volume();
+  const std::size_t bytes = volume.memory_bytes() + reconstruction_.integrator().memory_bytes();
   return {static_cast<std::size_t>(volume.block_count()),
-          static_cast<double>(volume.memory_bytes()) / kBytesPerMb, volume.capacity_reached()};
+          static_cast<double>(bytes) / kBytesPerMb, volume.capacity_reached()};
 }
 
 Processing::ExportResult Processing::write_outputs(const std::string& out_dir) const {

@@ -14,6 +14,7 @@
 #include "capture/synth_source.h"
 #include "core/status.h"
 #include "fusion/tsdf/marching_cubes.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "pipeline/session.h"
 #include "support/scratch_dir.h"
 #include "support/test_scenes.h"
@@ -29,11 +30,12 @@ constexpr double kPlaneDepthM = 1.0;
 /// A fronto-parallel plane at kPlaneDepthM fused once from the identity pose.
 TsdfVolume fused_plane() {
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), kPlaneDepthM});
   Image<float> depth;
   test::render(scene, kKinect, Pose::identity(), depth);
-  volume.integrate(depth, kKinect, Pose::identity());
+  integrator.integrate(volume, depth, kKinect, Pose::identity());
   return volume;
 }
 

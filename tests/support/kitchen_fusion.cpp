@@ -16,6 +16,7 @@
 #include "fusion/tracking/icp.h"
 #include "fusion/tsdf/marching_cubes.h"
 #include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
 #include "io/png_read.h"
 
@@ -156,6 +157,7 @@ KitchenRunStats run_kitchen(const std::string& dir, const KitchenRunOptions& opt
   const FusionConfig fusion;
   const TrackingConfig tracking;
   TsdfVolume volume(fusion);
+  TsdfIntegrator integrator;
   RaycastResult model;
   IcpWorkspace workspace;
   Image<std::uint16_t> raw;
@@ -210,7 +212,7 @@ KitchenRunStats run_kitchen(const std::string& dir, const KitchenRunOptions& opt
     sum_sq += (pose.translation() - frames[i].T_world_camera_gt.translation()).squaredNorm();
     if (lost_now) continue;
     t0 = Clock::now();
-    volume.integrate(raw_m, kKitchenIntrinsics, pose);
+    integrator.integrate(volume, raw_m, kKitchenIntrinsics, pose);
     stats.ms_integrate.push_back(ms_since(t0));
     t0 = Clock::now();
     raycast(volume, kKitchenIntrinsics, pose, fusion, model,
@@ -234,7 +236,7 @@ KitchenRunStats run_kitchen(const std::string& dir, const KitchenRunOptions& opt
          [&] { raycast(volume, kKitchenIntrinsics, pose, fusion, scratch, &raw_m); });
     loop("raycast (no hint)", [&] { raycast(volume, kKitchenIntrinsics, pose, fusion, scratch); });
     loop("icp", [&] { icp(pyramid, model, pose, tracking, workspace); });
-    loop("integrate", [&] { volume.integrate(raw_m, kKitchenIntrinsics, pose); });
+    loop("integrate", [&] { integrator.integrate(volume, raw_m, kKitchenIntrinsics, pose); });
   }
   if (options.mesh) {
     const auto t0 = Clock::now();

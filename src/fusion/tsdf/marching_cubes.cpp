@@ -1,12 +1,10 @@
 /// @file marching_cubes.cpp
 /// @brief Marching cubes over the sparse TSDF: generated case table, per-block vertex pass,
-/// prefix sums, per-block triangle pass, removal of unused vertices; plus a serial reference.
+/// prefix sums, per-block triangle pass, removal of unused vertices.
 #include "fusion/tsdf/marching_cubes.h"
 
 #include <algorithm>
 #include <cstdint>
-#include <map>
-#include <tuple>
 
 #include <tbb/parallel_for.h>
 
@@ -252,57 +250,6 @@ TriangleMesh extract_mesh(const TsdfVolume& volume, float min_weight) {
     mesh.faces.insert(mesh.faces.end(), bv.faces.begin(), bv.faces.end());
   }
   remove_unused_vertices(mesh);
-  return mesh;
-}
-
-TriangleMesh extract_mesh_reference(const TsdfVolume& volume, float min_weight) {
-  const MarchingCubesTable& table = marching_cubes_table();
-  TriangleMesh mesh;
-  std::map<std::tuple<int, int, int, int>, int> vertex_of_edge;
-  TsdfSampler sampler(volume);
-  const float vs = volume.voxel_size_m();
-  for (const int index : volume.sorted_block_indices()) {
-    const Eigen::Vector3i base = volume.block_coord(index) * kBlockSize;
-    for (int z = 0; z < kBlockSize; ++z) {
-      for (int y = 0; y < kBlockSize; ++y) {
-        for (int x = 0; x < kBlockSize; ++x) {
-          const Eigen::Vector3i g = base + Eigen::Vector3i(x, y, z);
-          float f[8];
-          int mask = 0;
-          bool ok = true;
-          for (int c = 0; c < 8 && ok; ++c) {
-            const Eigen::Vector3i h = g + corner_offset(c);
-            const Voxel* v = volume.find_voxel(h);
-            ok = usable(v, min_weight);
-            if (ok) {
-              f[c] = v->tsdf();
-              if (f[c] < 0.0f) mask |= 1 << c;
-            }
-          }
-          if (!ok) continue;
-          for (const auto& tri : table.triangles[mask]) {
-            Eigen::Vector3i face;
-            for (int k = 0; k < 3; ++k) {
-              const int e = tri[k];
-              const int a = kCubeEdges[e][0], b = kCubeEdges[e][1];
-              const Eigen::Vector3i owner = g + corner_offset(a);
-              const auto key = std::make_tuple(owner.x(), owner.y(), owner.z(), e / 4);
-              auto it = vertex_of_edge.find(key);
-              if (it == vertex_of_edge.end()) {
-                Eigen::Vector3f p, nrm;
-                edge_vertex(sampler, owner, e / 4, f[a], f[b], vs, p, nrm);
-                it = vertex_of_edge.emplace(key, static_cast<int>(mesh.vertices.size())).first;
-                mesh.vertices.push_back(p);
-                mesh.normals.push_back(nrm);
-              }
-              face[k] = it->second;
-            }
-            mesh.faces.push_back(face);
-          }
-        }
-      }
-    }
-  }
   return mesh;
 }
 

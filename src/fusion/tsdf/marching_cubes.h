@@ -32,8 +32,4 @@ const MarchingCubesTable& marching_cubes_table();
 /// of the result depend neither on the thread count nor on the allocation order.
 TriangleMesh extract_mesh(const TsdfVolume& volume, float min_weight);
 
-/// Plain reference of extract_mesh(): one serial pass over all cubes, vertices shared through a
-/// map keyed by grid edge. Same vertices and triangles, in a different order.
-TriangleMesh extract_mesh_reference(const TsdfVolume& volume, float min_weight);
-
 }  // namespace aoscan

@@ -1,51 +1,33 @@
 /// @file raycast.cpp
 /// @brief TSDF raycasting: depth-hint search, per-tile depth bounds from the allocated blocks,
-/// block skipping, steps by the TSDF value, regula-falsi-refined zero crossings, gradient normals.
+/// block skipping, steps by the TSDF value, regula-falsi-refined zero crossings, gradient normals;
+/// the portable row loop and the one dispatch to the AVX2 row loop (raycast_avx2.cpp).
 #include "fusion/tsdf/raycast.h"
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 #include <limits>
 #include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
-
 #include "core/status.h"
+#include "fusion/tsdf/raycast_kernels.h"
 #include "fusion/tsdf/tsdf_sampler.h"
 #include "geometry/simd.h"
 
 namespace aoscan {
+namespace detail {
 namespace {
 
-/// Pixels per tile edge of the depth-bounds image.
-constexpr int kTile = 8;
 /// Block groups of the depth-bounds pass; fixed so the split never depends on threads.
 constexpr int kBoundsGroups = 16;
-/// Steps of the search around a depth hint before falling back to a march of the window ...
-constexpr int kHintSteps = 4;
-/// ... of this half-width around the hint, in truncation distances.
-constexpr float kHintWindow = 2.0f;
 /// Limit of the refinement iterations after a zero crossing is bracketed ...
 constexpr int kRefineIterations = 4;
 /// ... which stop when the bracket is this short (depth along the optical axis, m) or the
 /// sample's distance to the surface is below it (m).
 constexpr float kRefineTolerance = 1e-4f;
-
-/// A camera ray in voxel units: g(s) = origin + s * dir, where s is the depth along the optical
-/// axis (m).
-struct Ray {
-  Eigen::Vector3f origin;
-  Eigen::Vector3f dir;
-  Eigen::Vector3f ray_camera;  ///< (x/z, y/z, 1) of the pixel
-  float metres_per_s;          ///< |ray_camera|: metres travelled per unit of s
-};
 
 /// Finds the zero crossing between s0 (tsdf f0 >= 0) and s1 (tsdf f1 < 0) on trilinear samples by
 /// the Illinois variant of regula falsi (converges where the field is not linear, e.g. at grazing
@@ -99,35 +81,6 @@ void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matri
   r.maps.vertices(x, y) = vertex;
   r.maps.normals(x, y) = normal;
 }
-
-/// Everything per frame that both raycasts need.
-struct RaySetup {
-  Eigen::Matrix3f R_world_camera;
-  Eigen::Matrix3f R_camera_world;
-  Eigen::Vector3f origin_voxels;
-  float inv_voxel;
-  float fx_inv, fy_inv, cx, cy;
-
-  RaySetup(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera) {
-    R_world_camera = T_world_camera.rotation().cast<float>();
-    R_camera_world = R_world_camera.transpose();
-    inv_voxel = 1.0f / volume.voxel_size_m();
-    origin_voxels = T_world_camera.translation().cast<float>() * inv_voxel;
-    fx_inv = static_cast<float>(1.0 / k.fx);
-    fy_inv = static_cast<float>(1.0 / k.fy);
-    cx = static_cast<float>(k.cx);
-    cy = static_cast<float>(k.cy);
-  }
-  Ray ray(int x, int y) const {
-    Ray r;
-    r.ray_camera = Eigen::Vector3f((static_cast<float>(x) - cx) * fx_inv,
-                                   (static_cast<float>(y) - cy) * fy_inv, 1.0f);
-    r.origin = origin_voxels;
-    r.dir = R_world_camera * r.ray_camera * inv_voxel;
-    r.metres_per_s = r.ray_camera.norm();
-    return r;
-  }
-};
 
 void prepare(const Intrinsics& intrinsics, const Pose& T_world_camera, RaycastResult& result) {
   result.T_world_camera = T_world_camera;
@@ -276,6 +229,8 @@ bool scan_crossing(TsdfSampler& sampler, const Ray& ray, float s0, float s1, flo
   return false;
 }
 
+}  // namespace
+
 /// Marches one ray from depth s to s_end; writes the pixel and returns true on a surface hit.
 bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float voxel_size,
            float truncation, const Eigen::Matrix3f& R_camera_world, RaycastResult& result, int x,
@@ -361,11 +316,7 @@ bool march(TsdfSampler& sampler, const Ray& ray, float s, float s_end, float vox
   }
   return false;
 }
-
-/// A + to - bracket [s0, s1] of the trilinear field along a ray (tsdf f0 >= 0 at s0, f1 < 0 at s1).
-struct Bracket {
-  float s0 = 0.0f, f0 = 0.0f, s1 = 0.0f, f1 = 0.0f;
-};
+namespace {
 
 /// Searches for the surface around depth `d` (a depth measured at this pixel and pose): walks
 /// from d towards the zero of the trilinear field in steps of its value (at least a voxel) until
@@ -396,6 +347,7 @@ bool search_near(TsdfSampler& sampler, const Ray& ray, float d, float s_begin, f
   }
   return false;
 }
+}  // namespace
 
 /// Runs a hinted ray to its end: the refined hit of its bracket (`found`), else, or when the hit
 /// has no normal, a march of the window around the hint.
@@ -410,171 +362,87 @@ void finish_hinted_ray(TsdfSampler& sampler, const Ray& ray, int x, int y, float
   march(sampler, ray, std::max(s_begin, d - kHintWindow * trunc),
         std::min(s_end, d + kHintWindow * trunc), vs, trunc, R_camera_world, result, x, y);
 }
+}  // namespace detail
 
-/// The rays of one row that carry a depth hint, up to eight, searched together.
-struct HintLanes {
-  static constexpr int kLanes = 8;
-  int count = 0;
-  int x[kLanes];
-  Ray ray[kLanes];
-  alignas(32) float d[kLanes];        ///< the hint
-  alignas(32) float s_begin[kLanes];  ///< the ray's depth range
-  alignas(32) float s_end[kLanes];
-  alignas(32) float s_per_metre[kLanes];
-  alignas(32) float min_step[kLanes];  ///< a voxel, in depth along the optical axis
-  alignas(32) float dir[3][kLanes];
-};
+namespace {
 
-/// What search_near8() found per lane: the bracket of search_near() (bit l of `found`), or none.
-struct HintBrackets {
-  int found = 0;
-  alignas(32) float s0[HintLanes::kLanes], f0[HintLanes::kLanes];
-  alignas(32) float s1[HintLanes::kLanes], f1[HintLanes::kLanes];
-};
+using detail::Bracket;
+using detail::Ray;
+using detail::RaySetup;
+using detail::RaycastRows;
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define AOSCAN_RAYCAST_AVX2 1
-
-/// Lanes whose bit is set in `bits`, as an all-ones mask per lane.
-__attribute__((target("avx2"))) inline __m256 lane_mask(int bits) {
-  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  return _mm256_castsi256_ps(
-      _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits), bit), bit));
-}
-
-/// u + t (v - u) on eight lanes, as interpolate() per lane.
-__attribute__((target("avx2"))) AOSCAN_NO_CONTRACT inline __m256 lerp8(__m256 u, __m256 v,
-                                                                       __m256 t) {
-  return _mm256_add_ps(u, _mm256_mul_ps(t, _mm256_sub_ps(v, u)));
-}
-
-/// trilinear() at depth s of each lane in `active`: the values in `f`, the lanes whose sample
-/// exists returned. The eight corners are read lane by lane (cells whose x pairs straddle a block
-/// border through trilinear() itself) and interpolated eight lanes at a time with the float
-/// operations of TsdfSampler's scalar read, so the same bits.
-__attribute__((target("avx2"))) AOSCAN_NO_CONTRACT int sample8(TsdfSampler& sampler,
-                                                               const HintLanes& lanes,
-                                                               const Eigen::Vector3f& origin,
-                                                               __m256 s, int active, __m256& f) {
-  alignas(32) float g[3][HintLanes::kLanes];
-  alignas(32) std::int32_t cell[3][HintLanes::kLanes];
-  __m256 position[3];
-  for (int c = 0; c < 3; ++c) {
-    position[c] =
-        _mm256_add_ps(_mm256_set1_ps(origin[c]), _mm256_mul_ps(s, _mm256_load_ps(lanes.dir[c])));
-    _mm256_store_ps(g[c], position[c]);
-    // floor_to_int(): truncate, minus one where that rounded up.
-    const __m256i i = _mm256_cvttps_epi32(position[c]);
-    const __m256 above = _mm256_cmp_ps(_mm256_cvtepi32_ps(i), position[c], _CMP_GT_OQ);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(cell[c]),
-                       _mm256_add_epi32(i, _mm256_castps_si256(above)));
-  }
-  // Per lane and x pair k: the pair's two voxels (tsdf_q | count << 16 each) in 64 bits.
-  alignas(32) std::uint64_t pair_bits[4][HintLanes::kLanes] = {};
-  alignas(32) float scalar_f[HintLanes::kLanes] = {};
-  int gathered = 0, scalar = 0;
-  for (int bits = active; bits != 0; bits &= bits - 1) {
-    const int l = __builtin_ctz(bits);
-    if ((cell[0][l] & 7) == 7) {
-      if (sampler.trilinear(Eigen::Vector3f(g[0][l], g[1][l], g[2][l]), scalar_f[l]))
-        scalar |= 1 << l;
+/// Raycasts row y one ray at a time.
+void raycast_row_portable(TsdfSampler& sampler, const RaycastRows& rows, int y) {
+  const RaySetup& setup = rows.setup;
+  for (int x = 0; x < rows.width; ++x) {
+    float s_begin, s_end;
+    rows.range(x, y, s_begin, s_end);
+    if (!(s_begin < s_end)) continue;
+    const Ray ray = setup.ray(x, y);
+    const float d = rows.hint(x, y);
+    if (detail::usable_hint(d)) {
+      // The frame saw this pixel's surface at depth d and free space in front of it: the model's
+      // first crossing is next to d, or the model is unsure here.
+      Bracket b;
+      const bool found = detail::search_near(sampler, ray, d, s_begin, s_end, rows.voxel_size,
+                                             rows.truncation, b);
+      detail::finish_hinted_ray(sampler, ray, x, y, d, s_begin, s_end, found, b, rows.voxel_size,
+                                rows.truncation, setup.R_camera_world, rows.result);
       continue;
     }
-    const Voxel* pairs[4];
-    if (!sampler.x_pairs(cell[0][l], cell[1][l], cell[2][l], pairs)) continue;
-    static_assert(2 * sizeof(Voxel) == sizeof(std::uint64_t), "an x pair is 64 bits");
-    for (int k = 0; k < 4; ++k) std::memcpy(&pair_bits[k][l], pairs[k], sizeof(std::uint64_t));
-    gathered |= 1 << l;
+    detail::march(sampler, ray, s_begin, s_end, rows.voxel_size, rows.truncation,
+                  setup.R_camera_world, rows.result, x, y);
   }
-  const __m256i zero = _mm256_setzero_si256();
-  const __m256 step = _mm256_set1_ps(Voxel::kTsdfStep);
-  __m256i unobserved = zero;
-  __m256 c[8];
-  for (int k = 0; k < 4; ++k) {
-    // Lanes 0-3 and 4-7 of pair k, each lane's two voxels adjacent: split into the pair's even
-    // and odd corners (the shuffle leaves lanes in the order 0 1 4 5 2 3 6 7; the permute
-    // restores it).
-    const __m256 lo = _mm256_load_ps(reinterpret_cast<const float*>(pair_bits[k]));
-    const __m256 hi = _mm256_load_ps(reinterpret_cast<const float*>(pair_bits[k] + 4));
-    const __m256i halves[2] = {
-        _mm256_castps_si256(_mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(2, 0, 2, 0))),
-        _mm256_castps_si256(_mm256_shuffle_ps(lo, hi, _MM_SHUFFLE(3, 1, 3, 1)))};
-    for (int odd = 0; odd < 2; ++odd) {
-      const __m256i v = _mm256_permute4x64_epi64(halves[odd], _MM_SHUFFLE(3, 1, 2, 0));
-      unobserved = _mm256_or_si256(unobserved, _mm256_cmpeq_epi32(_mm256_srli_epi32(v, 16), zero));
-      c[2 * k + odd] =
-          _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srai_epi32(_mm256_slli_epi32(v, 16), 16)), step);
-    }
-  }
-  gathered &= ~_mm256_movemask_ps(_mm256_castsi256_ps(unobserved));
-  __m256 a[3];
-  for (int k = 0; k < 3; ++k)
-    a[k] = _mm256_sub_ps(
-        position[k],
-        _mm256_cvtepi32_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(cell[k]))));
-  const __m256 c0 = lerp8(lerp8(c[0], c[1], a[0]), lerp8(c[2], c[3], a[0]), a[1]);
-  const __m256 c1 = lerp8(lerp8(c[4], c[5], a[0]), lerp8(c[6], c[7], a[0]), a[1]);
-  f = _mm256_blendv_ps(lerp8(c0, c1, a[2]), _mm256_load_ps(scalar_f), lane_mask(scalar));
-  return gathered | scalar;
 }
 
-/// The lanes with s in [s_begin, s_end) as bits.
-__attribute__((target("avx2"))) inline int in_range8(__m256 s, __m256 s_begin, __m256 s_end) {
-  return _mm256_movemask_ps(
-      _mm256_and_ps(_mm256_cmp_ps(s, s_begin, _CMP_GE_OQ), _mm256_cmp_ps(s, s_end, _CMP_LT_OQ)));
-}
+/// raycast() with the AVX2 row loop (`simd`, the caller checked the CPU) or the portable one.
+void raycast_impl(const TsdfVolume& volume, const Intrinsics& intrinsics,
+                  const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
+                  const Image<float>* depth_hint_m, bool simd) {
+  detail::check_inputs(intrinsics, config);
+  if (depth_hint_m != nullptr &&
+      (depth_hint_m->width() != intrinsics.width || depth_hint_m->height() != intrinsics.height))
+    throw usage_error("raycast: the depth hint differs in size from the intrinsics");
+  detail::prepare(intrinsics, T_world_camera, result);
+  if (!T_world_camera.finite() || volume.block_count() == 0 ||
+      !detail::within_grid(volume, intrinsics, T_world_camera, config))
+    return;
 
-/// search_near() for the rays of `lanes` at once, up to the bracket: the same samples and steps
-/// in the same float operations, so the same brackets.
-__attribute__((target("avx2"))) AOSCAN_NO_CONTRACT void search_near8(TsdfSampler& sampler,
-                                                                     const HintLanes& lanes,
-                                                                     const Eigen::Vector3f& origin,
-                                                                     float truncation,
-                                                                     HintBrackets& out) {
-  const __m256 s_begin = _mm256_load_ps(lanes.s_begin);
-  const __m256 s_end = _mm256_load_ps(lanes.s_end);
-  const __m256 zero = _mm256_setzero_ps();
-  __m256 s_a = _mm256_load_ps(lanes.d);
-  __m256 f_a = zero;
-  int active = ((1 << lanes.count) - 1) & in_range8(s_a, s_begin, s_end);
-  active &= sample8(sampler, lanes, origin, s_a, active, f_a);
-  const __m256 forward = _mm256_cmp_ps(f_a, zero, _CMP_GE_OQ);
-  const __m256 direction = _mm256_blendv_ps(_mm256_set1_ps(-1.0f), _mm256_set1_ps(1.0f), forward);
-  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
-  const __m256 trunc = _mm256_set1_ps(truncation);
-  const __m256 s_per_metre = _mm256_load_ps(lanes.s_per_metre);
-  const __m256 half_step = _mm256_mul_ps(_mm256_set1_ps(0.5f), _mm256_load_ps(lanes.min_step));
-  __m256 s0 = zero, f0 = zero, s1 = zero, f1 = zero;
-  out.found = 0;
-  for (int i = 0; i < kHintSteps && active != 0; ++i) {
-    const __m256 distance =
-        _mm256_mul_ps(_mm256_mul_ps(_mm256_and_ps(f_a, abs_mask), trunc), s_per_metre);
-    const __m256 s_b =
-        _mm256_add_ps(s_a, _mm256_mul_ps(direction, _mm256_add_ps(distance, half_step)));
-    active &= in_range8(s_b, s_begin, s_end);
-    __m256 f_b = zero;
-    active &= sample8(sampler, lanes, origin, s_b, active, f_b);
-    const int crossed =
-        active & _mm256_movemask_ps(_mm256_xor_ps(_mm256_cmp_ps(f_b, zero, _CMP_GE_OQ),
-                                                  _mm256_cmp_ps(f_a, zero, _CMP_GE_OQ)));
-    if (crossed != 0) {
-      const __m256 take = lane_mask(crossed);
-      s0 = _mm256_blendv_ps(s0, _mm256_blendv_ps(s_b, s_a, forward), take);
-      f0 = _mm256_blendv_ps(f0, _mm256_blendv_ps(f_b, f_a, forward), take);
-      s1 = _mm256_blendv_ps(s1, _mm256_blendv_ps(s_a, s_b, forward), take);
-      f1 = _mm256_blendv_ps(f1, _mm256_blendv_ps(f_a, f_b, forward), take);
-      out.found |= crossed;
-      active &= ~crossed;
-    }
-    s_a = s_b;
-    f_a = f_b;
-  }
-  _mm256_store_ps(out.s0, s0);
-  _mm256_store_ps(out.f0, f0);
-  _mm256_store_ps(out.s1, s1);
-  _mm256_store_ps(out.f1, f1);
-}
+  const float min_depth = static_cast<float>(config.raycast_min_depth_m);
+  const float max_depth = static_cast<float>(config.raycast_max_depth_m);
+  const int tiles_x = (intrinsics.width + detail::kTile - 1) / detail::kTile;
+  const int tiles_y = (intrinsics.height + detail::kTile - 1) / detail::kTile;
+  std::vector<float> zmin, zmax;
+  detail::depth_bounds(volume, intrinsics, T_world_camera, min_depth, tiles_x, tiles_y, zmin,
+                       zmax);
+
+  const RaySetup setup(volume, intrinsics, T_world_camera);
+  const RaycastRows rows{setup,
+                         depth_hint_m,
+                         zmin.data(),
+                         zmax.data(),
+                         tiles_x,
+                         intrinsics.width,
+                         min_depth,
+                         max_depth,
+                         volume.voxel_size_m(),
+                         volume.truncation_m(),
+                         result};
+  // On a CPU with AVX2 the hinted rays of a row are searched eight per vector.
+#if defined(AOSCAN_RAYCAST_AVX2)
+  const auto raycast_row = simd ? detail::raycast_row_avx2 : raycast_row_portable;
+#else
+  static_cast<void>(simd);
+  const auto raycast_row = raycast_row_portable;
 #endif
+  tbb::parallel_for(tbb::blocked_range<int>(0, intrinsics.height, 4),
+                    [&](const tbb::blocked_range<int>& range) {
+                      TsdfSampler sampler(volume);
+                      for (int y = range.begin(); y != range.end(); ++y)
+                        raycast_row(sampler, rows, y);
+                    });
+  result.hits = count_hits(result.depth_m);
+}
 
 }  // namespace
 
@@ -583,90 +451,6 @@ int count_hits(const Image<float>& depth) {
   for (std::size_t i = 0; i < depth.size(); ++i) hits += depth.data()[i] > 0.0f ? 1 : 0;
   return hits;
 }
-
-namespace {
-
-void raycast_impl(const TsdfVolume& volume, const Intrinsics& intrinsics,
-                  const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
-                  const Image<float>* depth_hint_m, bool simd) {
-  check_inputs(intrinsics, config);
-  if (depth_hint_m != nullptr &&
-      (depth_hint_m->width() != intrinsics.width || depth_hint_m->height() != intrinsics.height))
-    throw usage_error("raycast: the depth hint differs in size from the intrinsics");
-  prepare(intrinsics, T_world_camera, result);
-  if (!T_world_camera.finite() || volume.block_count() == 0 ||
-      !within_grid(volume, intrinsics, T_world_camera, config))
-    return;
-
-  const float min_depth = static_cast<float>(config.raycast_min_depth_m);
-  const float max_depth = static_cast<float>(config.raycast_max_depth_m);
-  const int tiles_x = (intrinsics.width + kTile - 1) / kTile;
-  const int tiles_y = (intrinsics.height + kTile - 1) / kTile;
-  std::vector<float> zmin, zmax;
-  depth_bounds(volume, intrinsics, T_world_camera, min_depth, tiles_x, tiles_y, zmin, zmax);
-
-  const RaySetup setup(volume, intrinsics, T_world_camera);
-  const float vs = volume.voxel_size_m();
-  const float trunc = volume.truncation_m();
-
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, intrinsics.height, 4), [&](const tbb::blocked_range<int>& rows) {
-        TsdfSampler sampler(volume);
-        HintLanes lanes{};  // lanes past `count` read as zeros
-        // Searches the collected hinted rays together and runs each to its end.
-        auto flush = [&](int y) {
-#if defined(AOSCAN_RAYCAST_AVX2)
-          HintBrackets b;
-          search_near8(sampler, lanes, setup.origin_voxels, trunc, b);
-          for (int l = 0; l < lanes.count; ++l)
-            finish_hinted_ray(sampler, lanes.ray[l], lanes.x[l], y, lanes.d[l], lanes.s_begin[l],
-                              lanes.s_end[l], (b.found >> l) & 1,
-                              Bracket{b.s0[l], b.f0[l], b.s1[l], b.f1[l]}, vs, trunc,
-                              setup.R_camera_world, result);
-#else
-          (void)y;
-#endif
-          lanes.count = 0;
-        };
-        for (int y = rows.begin(); y != rows.end(); ++y) {
-          for (int x = 0; x < intrinsics.width; ++x) {
-            const std::size_t ti = static_cast<std::size_t>(y / kTile) * tiles_x + x / kTile;
-            const float s_end = std::min(zmax[ti], max_depth);
-            const float s_begin = std::max(zmin[ti], min_depth);
-            if (!(s_begin < s_end)) continue;
-            const Ray ray = setup.ray(x, y);
-            const float d = depth_hint_m != nullptr ? (*depth_hint_m)(x, y) : 0.0f;
-            if (d > 0.0f && d < 1e4f) {
-              // The frame saw this pixel's surface at depth d and free space in front of it:
-              // the model's first crossing is next to d, or the model is unsure here.
-              if (simd) {
-                const int l = lanes.count++;
-                lanes.x[l] = x;
-                lanes.ray[l] = ray;
-                lanes.d[l] = d;
-                lanes.s_begin[l] = s_begin;
-                lanes.s_end[l] = s_end;
-                lanes.s_per_metre[l] = 1.0f / ray.metres_per_s;
-                lanes.min_step[l] = vs * lanes.s_per_metre[l];
-                for (int c = 0; c < 3; ++c) lanes.dir[c][l] = ray.dir[c];
-                if (lanes.count == HintLanes::kLanes) flush(y);
-                continue;
-              }
-              Bracket b;
-              const bool found = search_near(sampler, ray, d, s_begin, s_end, vs, trunc, b);
-              finish_hinted_ray(sampler, ray, x, y, d, s_begin, s_end, found, b, vs, trunc,
-                                setup.R_camera_world, result);
-              continue;
-            }
-            march(sampler, ray, s_begin, s_end, vs, trunc, setup.R_camera_world, result, x, y);
-          }
-          if (lanes.count > 0) flush(y);
-        }
-      });
-  result.hits = count_hits(result.depth_m);
-}
-
-}  // namespace
 
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
              const FusionConfig& config, RaycastResult& result, const Image<float>* depth_hint_m) {
@@ -682,46 +466,6 @@ void raycast_portable(const TsdfVolume& volume, const Intrinsics& intrinsics,
                       const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
                       const Image<float>* depth_hint_m) {
   raycast_impl(volume, intrinsics, T_world_camera, config, result, depth_hint_m, false);
-}
-
-void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
-                       const Pose& T_world_camera, const FusionConfig& config, float step_voxels,
-                       RaycastResult& result) {
-  check_inputs(intrinsics, config);
-  prepare(intrinsics, T_world_camera, result);
-  if (!T_world_camera.finite() || !(step_voxels > 0.0f) ||
-      !within_grid(volume, intrinsics, T_world_camera, config))
-    return;
-  const RaySetup setup(volume, intrinsics, T_world_camera);
-  const float min_depth = static_cast<float>(config.raycast_min_depth_m);
-  const float max_depth = static_cast<float>(config.raycast_max_depth_m);
-  TsdfSampler sampler(volume);
-  for (int y = 0; y < intrinsics.height; ++y) {
-    for (int x = 0; x < intrinsics.width; ++x) {
-      const Ray ray = setup.ray(x, y);
-      const float step = step_voxels * volume.voxel_size_m() / ray.metres_per_s;
-      float prev_s = 0.0f, prev_f = 0.0f;
-      bool prev_valid = false;
-      for (float s = min_depth; s < max_depth; s += step) {
-        float f = 0.0f;
-        if (!sampler.trilinear(ray.origin + s * ray.dir, f)) {
-          prev_valid = false;
-          continue;
-        }
-        if (prev_valid && prev_f >= 0.0f && f < 0.0f) {
-          write_hit(sampler, ray,
-                    refine_crossing(sampler, ray, volume.voxel_size_m(), volume.truncation_m(),
-                                    prev_s, prev_f, s, f),
-                    setup.R_camera_world, result, x, y);
-          break;
-        }
-        prev_s = s;
-        prev_f = f;
-        prev_valid = true;
-      }
-    }
-  }
-  result.hits = count_hits(result.depth_m);
 }
 
 }  // namespace aoscan

@@ -42,10 +42,4 @@ void raycast_portable(const TsdfVolume& volume, const Intrinsics& intrinsics,
 /// Pixels of a depth image with a surface (depth > 0): RaycastResult::hits of that depth.
 int count_hits(const Image<float>& depth);
 
-/// Plain reference of raycast(): single-threaded, a fixed step of `step_voxels` voxels through
-/// the whole depth range, trilinear samples only, no block skipping. Slow; for tests.
-void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
-                       const Pose& T_world_camera, const FusionConfig& config, float step_voxels,
-                       RaycastResult& result);
-
 }  // namespace aoscan

@@ -1,6 +1,7 @@
 /// @file tsdf_volume.h
 /// @brief The sparse truncated signed distance field: 8^3 voxel blocks in a hash of block
-/// coordinates, allocated only near observed surfaces, updated by projective TSDF integration.
+/// coordinates, allocated only near observed surfaces (TsdfIntegrator, tsdf_integrator.h, fills
+/// them).
 #pragma once
 
 #include <algorithm>
@@ -80,50 +81,23 @@ inline int floor_to_int(float v) {
   return i - (static_cast<float>(i) > v ? 1 : 0);
 }
 
-/// What one integrate() call did.
-struct IntegrateStats {
-  int rays = 0;              ///< valid depth pixels cast
-  int blocks_allocated = 0;  ///< blocks newly allocated by this frame
-  int blocks_updated = 0;    ///< blocks whose voxels were updated (the band of this frame)
-  int blocks_dropped = 0;    ///< blocks the band needed that the capacity did not allow
-  bool skipped = false;      ///< true when the pose was not finite: nothing was done
-};
-
 /// The sparse TSDF. World coordinates are metres; the centre of voxel g (integer global voxel
-/// coordinates) is at g * voxel_size_m; block b holds voxels 8b .. 8b+7 on each axis. The only
-/// stateful object of fusion: one writer (integrate, allocate_block, reset), any number of
-/// concurrent readers between writes.
+/// coordinates) is at g * voxel_size_m; block b holds voxels 8b .. 8b+7 on each axis. The block
+/// storage only; TsdfIntegrator fuses depth frames into it. The only stateful object of fusion:
+/// one writer (an integrator's integrate(), allocate_block, reset), any number of concurrent
+/// readers between writes.
 class TsdfVolume {
  public:
   /// Throws usage_error when voxel size, truncation, weight cap or capacity are not usable.
   explicit TsdfVolume(const FusionConfig& config);
-
-  /// Fuses one depth image (metres, 0 = invalid, size = intrinsics) seen from T_world_camera:
-  /// allocates the blocks that the truncation band [d - truncation, d + truncation] of every
-  /// valid pixel's ray passes through, then updates every voxel of those blocks by projective
-  /// TSDF (sdf = depth(pixel) - z_voxel along the optical axis, running average, weight capped).
-  /// Multi-threaded over blocks through TBB; the result does not depend on the thread count.
-  /// The voxel update runs one voxel row per AVX2 vector when the CPU has AVX2.
-  /// Throws usage_error when the depth size differs from the intrinsics.
-  IntegrateStats integrate(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                           const Pose& T_world_camera);
-  /// integrate() without SIMD (the portable C++ voxel update): bit for bit the same volume as
-  /// integrate() on any CPU (the AVX2 update performs the same float operations in the same
-  /// order). For tests and CPUs without AVX2.
-  IntegrateStats integrate_portable(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                                    const Pose& T_world_camera);
-  /// Plain single-threaded reference of integrate(): the same allocation and blocks, each voxel
-  /// projected by a full matrix product and two divisions. Agrees with integrate() up to the float
-  /// rounding of the projection: a voxel projecting within rounding of a pixel border may read
-  /// the neighbouring pixel (a few voxels in a million).
-  IntegrateStats integrate_reference(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                                     const Pose& T_world_camera);
 
   /// Drops every block (keeps the configuration).
   void reset();
 
   /// Index of the block with coordinates `block`, or -1 when it is not allocated.
   int find_block(const Eigen::Vector3i& block) const { return map_.find(pack(block)); }
+  /// find_block() by the block's pack()ed key (the integrator's allocation pass works on keys).
+  int find_block_key(std::uint64_t key) const { return map_.find(key); }
   /// Index of the block, allocating it (all voxels unobserved) when needed; -1 when the capacity
   /// is exhausted (then capacity_reached() becomes true).
   int allocate_block(const Eigen::Vector3i& block);
@@ -166,32 +140,19 @@ class TsdfVolume {
            ((static_cast<std::uint64_t>(b.y() + (1 << 20)) & kMask) << 21) |
            ((static_cast<std::uint64_t>(b.z() + (1 << 20)) & kMask) << 42);
   }
+  /// The block coordinates of a pack()ed key.
+  static Eigen::Vector3i unpack(std::uint64_t key) {
+    constexpr std::uint64_t kMask = (1u << 21) - 1;
+    return {static_cast<int>(key & kMask) - (1 << 20),
+            static_cast<int>((key >> 21) & kMask) - (1 << 20),
+            static_cast<int>((key >> 42) & kMask) - (1 << 20)};
+  }
   /// Largest |block coordinate| that pack() represents.
   static constexpr int kMaxBlockCoord = (1 << 20) - 1;
 
  private:
   static constexpr int kChunkBits = 10;
   static constexpr int kChunkMask = (1 << kChunkBits) - 1;
-
-  /// Allocation pass of integrate() and integrate_reference(): fills visible_. `fast` runs the
-  /// chunks in parallel and skips the traversal of segments whose cells are known (the same
-  /// blocks in the same order as the plain per-pixel traversal); `simd` (with `fast`, the
-  /// caller checked the CPU) sets up eight pixels' segments per AVX2 vector, the same floats.
-  IntegrateStats allocate_band(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                               const Pose& T_world_camera, bool fast, bool simd);
-  /// integrate() with the AVX2 voxel update (`simd`) or the portable one.
-  IntegrateStats integrate_fast(const Image<float>& depth_m, const Intrinsics& intrinsics,
-                                const Pose& T_world_camera, bool simd);
-  /// update_block() with the voxel positions stepped affinely and one reciprocal per voxel:
-  /// the same update up to float rounding of the projection (a voxel whose projection lies
-  /// within rounding of a pixel border may read the neighbouring pixel). `simd`: one voxel row
-  /// per AVX2 vector (the caller checked the CPU), bit for bit the same result.
-  void update_block_fast(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
-                         const Eigen::Matrix3f& R_camera_world,
-                         const Eigen::Vector3f& t_camera_world, bool simd);
-  /// Updates the voxels of one block from the frame (the plain reference arithmetic).
-  void update_block(int index, const Image<float>& depth_m, const Intrinsics& intrinsics,
-                    const Eigen::Matrix3f& R_camera_world, const Eigen::Vector3f& t_camera_world);
 
   float voxel_size_;
   float truncation_;
@@ -209,13 +170,6 @@ class TsdfVolume {
   /// allocate_block() hands it out, so a new chunk costs no write (and no page touched) at once.
   std::vector<std::unique_ptr<VoxelBlock[], ChunkFree>> chunks_;
   std::vector<Eigen::Vector3i> coords_;
-  std::vector<std::uint32_t> last_frame_;  ///< per block: integrate() call that last listed it
-  std::uint32_t frame_counter_ = 0;
-
-  // Per-frame scratch, reused across calls.
-  std::vector<std::vector<std::uint64_t>> chunk_keys_;
-  std::vector<int> chunk_rays_;
-  std::vector<int> visible_;
 };
 
 }  // namespace aoscan

@@ -15,6 +15,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
 #include "support/geometry_reference.h"
 #include "support/test_scenes.h"
@@ -34,13 +35,14 @@ struct Tracked {
   test::Scene scene = test::corner_scene();
   Pose A = test::look_at({0.3, -0.3, 0.3}, {-0.3, 0.6, 2.5});
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   RaycastResult model;
 
   explicit Tracked(double noise_m = 0.0) {
     Image<float> depth;
     for (unsigned i = 0; i < 3; ++i) {
       test::render(scene, kKinect, A, depth, nullptr, noise_m, 100 + i);
-      volume.integrate(depth, kKinect, A);
+      integrator.integrate(volume, depth, kKinect, A);
     }
     raycast(volume, kKinect, A, FusionConfig{}, model);
   }
@@ -120,9 +122,10 @@ TEST(Icp, SinglePlaneIsDegenerateButConstrainedPartIsRecovered) {
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 2.0});
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(scene, kKinect, Pose::identity(), depth);
-  volume.integrate(depth, kKinect, Pose::identity());
+  integrator.integrate(volume, depth, kKinect, Pose::identity());
   RaycastResult model;
   raycast(volume, kKinect, Pose::identity(), FusionConfig{}, model);
   const Pose B(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.02));
@@ -212,9 +215,10 @@ TEST(Icp, WallAndFloorTakeTheMotionAlongTheirEdgeFromThePrior) {
   const Pose A = test::look_at({0.0, 0.0, 0.0}, {0.0, 0.4, 3.0});
   ASSERT_GT(std::abs(A.rotation().col(0).x()), 0.999);  // camera x along the edge
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(scene, kKinect, A, depth);
-  volume.integrate(depth, kKinect, A);
+  integrator.integrate(volume, depth, kKinect, A);
   RaycastResult model;
   raycast(volume, kKinect, A, FusionConfig{}, model);
   const Pose B = test::motion({0, 1, 0}, 0.5, {0.012, 0.006, -0.008}) * A;
@@ -457,6 +461,7 @@ TEST(Icp, NoisySequenceTrajectoryErrorWithinThreeMillimetres) {
   const test::Scene scene = test::corner_scene();
   const Intrinsics k = kKinect;
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   RaycastResult model;
   const int frames = 12;
   double sum_sq = 0.0;
@@ -474,7 +479,7 @@ TEST(Icp, NoisySequenceTrajectoryErrorWithinThreeMillimetres) {
       estimate = r.T_world_camera;
     }
     sum_sq += (estimate.translation() - truth.translation()).squaredNorm();
-    volume.integrate(frame.depth_m[0], k, estimate);
+    integrator.integrate(volume, frame.depth_m[0], k, estimate);
     raycast(volume, k, estimate, FusionConfig{}, model);
   }
   const double ate = std::sqrt(sum_sq / frames);

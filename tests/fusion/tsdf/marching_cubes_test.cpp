@@ -13,7 +13,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "support/test_scenes.h"
+#include "support/tsdf_reference.h"
 
 namespace aoscan {
 namespace {
@@ -122,7 +124,7 @@ TEST(MarchingCubes, ParallelExtractionMatchesSerialReference) {
   TsdfVolume volume{FusionConfig{}};
   write_sphere(volume);
   const TriangleMesh fast = extract_mesh(volume, 1.0f);
-  const TriangleMesh reference = extract_mesh_reference(volume, 1.0f);
+  const TriangleMesh reference = test::extract_mesh_reference(volume, 1.0f);
   EXPECT_EQ(fast.vertices.size(), reference.vertices.size());
   EXPECT_EQ(fast.faces.size(), reference.faces.size());
   EXPECT_TRUE(triangle_set(fast) == triangle_set(reference));
@@ -166,9 +168,10 @@ TEST(MarchingCubes, FusedPlaneLiesOnThePlane) {
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 1.3});
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(scene, k, Pose::identity(), depth);
-  volume.integrate(depth, k, Pose::identity());
+  integrator.integrate(volume, depth, k, Pose::identity());
   const TriangleMesh mesh = extract_mesh(volume, 1.0f);
   ASSERT_GT(mesh.faces.size(), 10000u);
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {

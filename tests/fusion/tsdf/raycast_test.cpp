@@ -11,8 +11,10 @@
 #include <tbb/global_control.h>
 
 #include "core/status.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "geometry/simd.h"
 #include "support/test_scenes.h"
+#include "support/tsdf_reference.h"
 
 namespace aoscan {
 namespace {
@@ -23,6 +25,7 @@ const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
 struct FusedScene {
   test::Scene scene;
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
 
   FusedScene() {
     scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 2.4});
@@ -33,7 +36,7 @@ struct FusedScene {
          {test::look_at({0, 0, 0}, {0, 0.1, 1.6}), test::look_at({-0.4, -0.1, 0.2}, {0, 0.1, 1.6}),
           test::look_at({0.4, -0.2, 0.1}, {0, 0.1, 1.6})}) {
       test::render(scene, kKinect, pose, depth);
-      volume.integrate(depth, kKinect, pose);
+      integrator.integrate(volume, depth, kKinect, pose);
     }
   }
 };
@@ -101,7 +104,7 @@ TEST(Raycast, FastRaycastAgreesWithFixedStepReference) {
   config.raycast_max_depth_m = 3.0;
   RaycastResult fast, reference;
   raycast(fused.volume, small, pose, config, fast);
-  raycast_reference(fused.volume, small, pose, config, 0.25f, reference);
+  test::raycast_reference(fused.volume, small, pose, config, 0.25f, reference);
   int both = 0, disagree_mask = 0;
   std::vector<double> depth_diff, plane_diff;
   for (int y = 0; y < small.height; ++y) {
@@ -140,10 +143,11 @@ TEST(Raycast, DepthHintFindsTheSameSurface) {
   Image<float> hint;
   test::render(fused.scene, kKinect, pose, hint, nullptr, 0.003, 5);
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   for (const Pose& p : {test::look_at({0, 0, 0}, {0, 0.1, 1.6}), pose}) {
     test::render(fused.scene, kKinect, p, depth, nullptr, 0.003, p.translation().x() > 0 ? 5 : 6);
-    volume.integrate(depth, kKinect, p);
+    integrator.integrate(volume, depth, kKinect, p);
   }
   RaycastResult with, without;
   raycast(volume, kKinect, pose, FusionConfig{}, with, &hint);
@@ -181,10 +185,11 @@ TEST(Raycast, HintedRaysSearchedEightAtATimeMatchTheOneAtATimeSearch) {
   const FusedScene fused;
   const Pose pose = test::look_at({0.4, -0.2, 0.1}, {0, 0.1, 1.6});
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   for (const Pose& p : {test::look_at({0, 0, 0}, {0, 0.1, 1.6}), pose}) {
     test::render(fused.scene, kKinect, p, depth, nullptr, 0.003, p.translation().x() > 0 ? 5 : 6);
-    volume.integrate(depth, kKinect, p);
+    integrator.integrate(volume, depth, kKinect, p);
   }
   for (const int level : {0, 1}) {
     const Intrinsics k = kKinect.scaled(level);
@@ -219,17 +224,18 @@ TEST(Raycast, RaysCrossingLongEmptySpaceAgreeWithTheReference) {
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 4.5});
   scene.spheres.push_back({Eigen::Vector3d(0.1, -0.05, 1.0), 0.12});
   TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
   Image<float> depth;
   const Pose fused_from = test::look_at({0, 0, 0}, {0, 0, 1});
   test::render(scene, kKinect, fused_from, depth);
-  volume.integrate(depth, kKinect, fused_from);
+  integrator.integrate(volume, depth, kKinect, fused_from);
   const Pose pose = test::look_at({0.05, 0.02, 0.0}, {0.02, 0.0, 1.0});
   const Intrinsics small = kKinect.scaled(2);
   FusionConfig config;
   config.raycast_max_depth_m = 5.0;
   RaycastResult fast, reference;
   raycast(volume, small, pose, config, fast);
-  raycast_reference(volume, small, pose, config, 0.25f, reference);
+  test::raycast_reference(volume, small, pose, config, 0.25f, reference);
   int both = 0, disagree = 0, far_hits = 0, other_surface = 0;
   std::vector<double> depth_diff;
   for (int y = 0; y < small.height; ++y)

@@ -1,5 +1,5 @@
-// Tests for src/fusion/tsdf_volume.cpp: band allocation, projective TSDF values, weight cap,
-// multi-threaded vs reference integration, capacity, bad input.
+// Tests for src/fusion/tsdf/tsdf_volume.cpp and tsdf_integrator.cpp: band allocation, projective
+// TSDF values, weight cap, multi-threaded vs reference integration, capacity, bad input.
 #include "fusion/tsdf/tsdf_volume.h"
 
 #include <cmath>
@@ -11,8 +11,10 @@
 #include <tbb/global_control.h>
 
 #include "core/status.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_sampler.h"
 #include "support/test_scenes.h"
+#include "support/tsdf_reference.h"
 
 namespace aoscan {
 namespace {
@@ -88,9 +90,10 @@ TEST(Voxel, RunningAverageOfObservations) {
 
 TEST(TsdfVolume, FrontalPlaneGivesExactSignedDistance) {
   TsdfVolume volume(default_fusion());
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(plane_scene(1.5), kKinect, Pose::identity(), depth);
-  const IntegrateStats stats = volume.integrate(depth, kKinect, Pose::identity());
+  const IntegrateStats stats = integrator.integrate(volume, depth, kKinect, Pose::identity());
   EXPECT_EQ(stats.rays, 640 * 480);
   EXPECT_EQ(stats.blocks_allocated, volume.block_count());
   EXPECT_EQ(stats.blocks_updated, volume.block_count());
@@ -107,10 +110,11 @@ TEST(TsdfVolume, FrontalPlaneGivesExactSignedDistance) {
 
 TEST(TsdfVolume, AllocatesOnlyBlocksNearTheSurface) {
   TsdfVolume volume(default_fusion());
+  TsdfIntegrator integrator;
   Image<float> depth;
   const double z = 1.5;
   test::render(plane_scene(z), kKinect, Pose::identity(), depth);
-  volume.integrate(depth, kKinect, Pose::identity());
+  integrator.integrate(volume, depth, kKinect, Pose::identity());
   const double block = volume.block_size_m();
   const double voxel = volume.voxel_size_m();
   // Every block's voxel-centre box lies within the truncation band of the plane.
@@ -131,13 +135,14 @@ TEST(TsdfVolume, AllocatesOnlyBlocksNearTheSurface) {
 
 TEST(TsdfVolume, SphereSignedDistanceWithinAVoxel) {
   TsdfVolume volume(default_fusion());
+  TsdfIntegrator integrator;
   test::Scene scene;
   const Eigen::Vector3d centre(0.1, -0.05, 1.6);
   const double radius = 0.4;
   scene.spheres.push_back({centre, radius});
   Image<float> depth;
   test::render(scene, kKinect, Pose::identity(), depth);
-  volume.integrate(depth, kKinect, Pose::identity());
+  integrator.integrate(volume, depth, kKinect, Pose::identity());
   const double trunc = volume.truncation_m();
   int checked = 0;
   for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
@@ -155,9 +160,10 @@ TEST(TsdfVolume, WeightsAreCappedAndAveragesStay) {
   FusionConfig config = default_fusion();
   config.max_weight = 3.0;
   TsdfVolume volume(config);
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(plane_scene(1.2), kKinect, Pose::identity(), depth);
-  for (int i = 0; i < 5; ++i) volume.integrate(depth, kKinect, Pose::identity());
+  for (int i = 0; i < 5; ++i) integrator.integrate(volume, depth, kKinect, Pose::identity());
   float max_weight = 0;
   const double trunc = volume.truncation_m();
   for_each_observed(volume, [&](const Voxel& v, const Eigen::Vector3d& p) {
@@ -173,12 +179,13 @@ TEST(TsdfVolume, FastParallelIntegrationMatchesReference) {
                         test::look_at({0.0, -0.3, 0.4}, {-0.2, 0.5, 2.5}),
                         test::look_at({0.6, 0.0, 0.6}, {-0.4, 0.7, 2.7})};
   TsdfVolume fast(default_fusion()), reference(default_fusion());
+  TsdfIntegrator fast_integrator;
   Image<float> depth;
   unsigned seed = 3;
   for (const Pose& pose : poses) {
     test::render(scene, kKinect, pose, depth, nullptr, 0.004, seed++);
-    const IntegrateStats a = fast.integrate(depth, kKinect, pose);
-    const IntegrateStats b = reference.integrate_reference(depth, kKinect, pose);
+    const IntegrateStats a = fast_integrator.integrate(fast, depth, kKinect, pose);
+    const IntegrateStats b = test::integrate_reference(reference, depth, kKinect, pose);
     EXPECT_EQ(a.blocks_allocated, b.blocks_allocated);
     EXPECT_EQ(a.blocks_updated, b.blocks_updated);
   }
@@ -213,12 +220,13 @@ TEST(TsdfVolume, SimdIntegrationEqualsPortableBitForBit) {
                         test::look_at({-0.2, 0.1, 1.2}, {-0.5, 0.6, 2.7}),
                         test::look_at({0.6, 0.0, 0.6}, {-0.4, 0.7, 2.7})};
   TsdfVolume simd(default_fusion()), portable(default_fusion());
+  TsdfIntegrator simd_integrator, portable_integrator;
   Image<float> depth;
   unsigned seed = 21;
   for (const Pose& pose : poses) {
     test::render(scene, kKinect, pose, depth, nullptr, 0.004, seed++);
-    const IntegrateStats a = simd.integrate(depth, kKinect, pose);
-    const IntegrateStats b = portable.integrate_portable(depth, kKinect, pose);
+    const IntegrateStats a = simd_integrator.integrate(simd, depth, kKinect, pose);
+    const IntegrateStats b = portable_integrator.integrate_portable(portable, depth, kKinect, pose);
     EXPECT_EQ(a.blocks_allocated, b.blocks_allocated);
     EXPECT_EQ(a.blocks_updated, b.blocks_updated);
   }
@@ -248,8 +256,9 @@ TEST(TsdfVolume, SimdEqualsPortableOnARowWidthThatIsNoMultipleOfEight) {
     for (int x = 0; x < depth.width(); ++x)
       if ((x * 7 + y * 3) % 11 == 0) depth(x, y) = 0.0f;
   TsdfVolume simd(default_fusion()), portable(default_fusion());
-  const IntegrateStats a = simd.integrate(depth, k, pose);
-  const IntegrateStats b = portable.integrate_portable(depth, k, pose);
+  TsdfIntegrator simd_integrator, portable_integrator;
+  const IntegrateStats a = simd_integrator.integrate(simd, depth, k, pose);
+  const IntegrateStats b = portable_integrator.integrate_portable(portable, depth, k, pose);
   EXPECT_EQ(a.rays, b.rays);
   EXPECT_GT(a.rays, 100000);
   EXPECT_EQ(a.blocks_allocated, b.blocks_allocated);
@@ -266,13 +275,14 @@ TEST(TsdfVolume, SameVolumeForOneAndTwoThreads) {
   Image<float> depth;
   test::render(scene, kKinect, pose, depth, nullptr, 0.004, 9);
   TsdfVolume one(default_fusion()), two(default_fusion());
+  TsdfIntegrator one_integrator, two_integrator;
   {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-    one.integrate(depth, kKinect, pose);
+    one_integrator.integrate(one, depth, kKinect, pose);
   }
   {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-    two.integrate(depth, kKinect, pose);
+    two_integrator.integrate(two, depth, kKinect, pose);
   }
   ASSERT_EQ(one.block_count(), two.block_count());
   for (int i = 0; i < one.block_count(); ++i)
@@ -283,9 +293,10 @@ TEST(TsdfVolume, CapacityLimitIsReported) {
   FusionConfig config = default_fusion();
   config.max_blocks = 10;
   TsdfVolume volume(config);
+  TsdfIntegrator integrator;
   Image<float> depth;
   test::render(plane_scene(1.5), kKinect, Pose::identity(), depth);
-  const IntegrateStats stats = volume.integrate(depth, kKinect, Pose::identity());
+  const IntegrateStats stats = integrator.integrate(volume, depth, kKinect, Pose::identity());
   EXPECT_EQ(volume.block_count(), 10);
   EXPECT_EQ(stats.blocks_allocated, 10);
   EXPECT_GT(stats.blocks_dropped, 0);
@@ -297,21 +308,23 @@ TEST(TsdfVolume, CapacityLimitIsReported) {
 
 TEST(TsdfVolume, BadInputNeverCrashes) {
   TsdfVolume volume(default_fusion());
+  TsdfIntegrator integrator;
   Image<float> depth(640, 480, 1.0f);
   depth(3, 3) = std::numeric_limits<float>::quiet_NaN();
   depth(4, 3) = std::numeric_limits<float>::infinity();
   depth(5, 3) = -2.0f;
-  EXPECT_THROW(volume.integrate(Image<float>(320, 240, 1.0f), kKinect, Pose::identity()), Error);
+  EXPECT_THROW(
+      integrator.integrate(volume, Image<float>(320, 240, 1.0f), kKinect, Pose::identity()), Error);
   Pose bad(Eigen::Matrix3d::Identity(),
            Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0));
-  EXPECT_TRUE(volume.integrate(depth, kKinect, bad).skipped);
+  EXPECT_TRUE(integrator.integrate(volume, depth, kKinect, bad).skipped);
   EXPECT_EQ(volume.block_count(), 0);
-  const IntegrateStats stats = volume.integrate(depth, kKinect, Pose::identity());
+  const IntegrateStats stats = integrator.integrate(volume, depth, kKinect, Pose::identity());
   EXPECT_EQ(stats.rays, 640 * 480 - 3);
   // Far away from the origin: block coordinates beyond the packable range are dropped, not
   // wrapped.
   const Pose far(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1e9, 0, 0));
-  volume.integrate(depth, kKinect, far);
+  integrator.integrate(volume, depth, kKinect, far);
   for (int i = 0; i < volume.block_count(); ++i)
     EXPECT_LE(volume.block_coord(i).cwiseAbs().maxCoeff(), TsdfVolume::kMaxBlockCoord);
   FusionConfig config = default_fusion();

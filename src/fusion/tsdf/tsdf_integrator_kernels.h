@@ -1,0 +1,62 @@
+/// @file tsdf_integrator_kernels.h
+/// @brief Internal to the TSDF integrator: what its portable code (tsdf_integrator.cpp) and its
+/// AVX2 kernels (tsdf_integrator_avx2.cpp) share. Not for use outside src/fusion/tsdf/.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "fusion/tsdf/tsdf_volume.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define AOSCAN_TSDF_X86 1
+#else
+#define AOSCAN_TSDF_X86 0
+#endif
+
+namespace aoscan {
+namespace detail {
+
+/// One block's projection into the frame for the fast voxel update.
+struct BlockProjection {
+  Eigen::Vector3f p0;          ///< camera-frame position of the block's voxel (0, 0, 0) (m)
+  Eigen::Vector3f dx, dy, dz;  ///< camera-frame steps of one voxel along the block's axes (m)
+  float fx, fy, cx, cy;        ///< intrinsics; cx, cy shifted by half a pixel
+  int width;                   ///< depth image width (pixels)
+  float w_max, h_max;          ///< image size as floats
+  const float* depth;          ///< the depth image (m)
+  float truncation, inv_trunc, max_weight;
+};
+
+/// Camera-frame position of the first voxel of row (y, z) of a block.
+inline Eigen::Vector3f row_start(const BlockProjection& b, int y, int z) {
+  return b.p0 + static_cast<float>(y) * b.dy + static_cast<float>(z) * b.dz;
+}
+
+/// What the band allocation needs per pixel ray, in block-grid units (cell floor(q) is block q):
+/// the ray of pixel (x, y) at depth z is z * (row_dir + rx(x) * x_dir) + origin.
+struct BandRays {
+  Eigen::Vector3f row_dir, x_dir, origin;
+  float cx, fx_inv, trunc;
+};
+
+/// The band segments of eight pixels of a row: ends a = ray(z0), b = ray(z1) and their cells.
+struct BandSegments8 {
+  float a[3][8], b[3][8];
+  int ia[3][8], ib[3][8];
+};
+
+#if AOSCAN_TSDF_X86
+/// The fast voxel update (update_block_portable() in tsdf_integrator.cpp) with one voxel row
+/// (8 voxels, 32 bytes) per AVX2 vector and a gather of the 8 depths: the same operations in the
+/// same order, so bit for bit the same result. Only on a CPU with AVX2.
+void update_block_avx2(const BlockProjection& b, Voxel* voxels);
+
+/// The band segment set-up of pixels x0 .. x0 + 7 of one row with AVX2: the float operations of
+/// the per-pixel code in the same order (no FMA), so the same ends and cells. Returns the lanes
+/// with a valid depth (bit i = pixel x0 + i) in the low byte and, among them, those whose ends
+/// are inside the packable block range in the high byte. Only on a CPU with AVX2.
+int band_segments_avx2(const float* depth, int x0, const BandRays& r, BandSegments8& out);
+#endif
+
+}  // namespace detail
+}  // namespace aoscan
