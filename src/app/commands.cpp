@@ -5,6 +5,9 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <memory>
+
+#include <tbb/global_control.h>
 
 #include "capture/devices.h"
 #include "capture/output_file.h"
@@ -61,6 +64,23 @@ ExitCode run_devices() {
 
 ExitCode run_print_config(const RunArgs& args) {
   std::fputs(dump_config(load_config(args.config_file, args.sets)).c_str(), stdout);
+  return ExitCode::kOk;
+}
+
+ExitCode run_scans_command(const ScansArgs& args) {
+  if (!args.unsupported.empty())
+    throw usage_error("scans: " + args.unsupported.front() +
+                      " is not implemented yet (the scan set is processed in memory, in one "
+                      "process)");
+  ScansOptions options = args.scans;
+  options.config = load_config(args.config_file, args.sets);
+  std::unique_ptr<tbb::global_control> threads;
+  if (args.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(args.threads));
+  const ScansResult r = run_scans(options);
+  std::fprintf(stderr, "aoscan: %zu scans, %lld points, %.1f s: %s/points.ply\n", r.scans.size(),
+               r.points, r.wall_s, options.out_dir.c_str());
   return ExitCode::kOk;
 }
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/status.h"
+#include "pipeline/scan_set.h"
 #include "pipeline/session.h"
 
 namespace aoscan {
@@ -31,10 +32,22 @@ struct RecordArgs {
   std::optional<std::size_t> max_frames;
 };
 
+/// The command line of `scans`.
+struct ScansArgs {
+  ScansOptions scans;  ///< filled by the options that map one to one
+  std::string config_file;
+  std::vector<std::string> sets;
+  int threads = 0;  ///< 0: all cores
+  /// Options of the contract that this version does not implement yet: refused with a usage
+  /// error rather than ignored.
+  std::vector<std::string> unsupported;
+};
+
 /// Each returns the process exit code; set-up failures are thrown as aoscan::Error.
 ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested);
 ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_requested);
 ExitCode run_devices();
 ExitCode run_print_config(const RunArgs& args);
+ExitCode run_scans_command(const ScansArgs& args);
 
 }  // namespace aoscan

@@ -1,5 +1,5 @@
 /// @file main.cpp
-/// @brief aoscan command line: replay, scan, record, devices, config.
+/// @brief aoscan command line: replay, scan, record, devices, config, scans.
 #include <csignal>
 #include <cstdio>
 #include <optional>
@@ -66,6 +66,42 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
       ->needs(snapshot);
 }
 
+/// Options of `scans` (the contract's command line).
+void add_scans_options(CLI::App& cmd, ScansArgs& args) {
+  ScansOptions& o = args.scans;
+  cmd.add_option("INPUT", o.inputs,
+                 "scan manifests (.json, .yaml), MeshLab projects (.mlp), PTX files (.ptx) or "
+                 "recording folders")
+      ->required();
+  cmd.add_option("--out", o.out_dir, "folder for the outputs (created if missing)")
+      ->capture_default_str();
+  cmd.add_option("--every", o.every, "recording folders: every K-th frame is a scan")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd.add_option("--poses", o.poses,
+                 "TUM trajectory posing the recording folders' frames (default: the folder's "
+                 "trajectory.txt, else its groundtruth.txt)")
+      ->check(CLI::ExistingFile);
+  cmd.add_option("--neighbourhood", o.neighbourhood,
+                 "N x N samples per corresponding point: 1, 3, 5, 7 or 9")
+      ->check(CLI::IsMember({1, 3, 5, 7, 9}))
+      ->capture_default_str();
+  cmd.add_flag("--ssao-only", o.ssao_only, "write each scan's own SSAO instead of the MVAO");
+  cmd.add_option("--config", args.config_file, "configuration file (YAML or JSON)")
+      ->check(CLI::ExistingFile);
+  cmd.add_option("--set", args.sets, "override one configuration key: KEY=VALUE (repeatable)")
+      ->allow_extra_args(false);
+  cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
+      ->check(CLI::PositiveNumber);
+  // In the contract, not implemented yet: refused with a clear message.
+  for (const char* name : {"--memory-limit", "--resume", "--mesh"}) {
+    CLI::Option* option = std::string(name) == "--memory-limit"
+                              ? cmd.add_option(name, "not implemented yet")
+                              : cmd.add_flag(name, "not implemented yet");
+    option->each([&args, name](const std::string&) { args.unsupported.push_back(name); });
+  }
+}
+
 int report(ExitCode code, const std::string& message) {
   std::fprintf(stderr, "aoscan: error: %s\n", one_line(message).c_str());
   return static_cast<int>(code);
@@ -108,6 +144,11 @@ int run(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   config->add_option("--set", config_args.sets, "override one configuration key: KEY=VALUE");
 
+  ScansArgs scans_args;
+  CLI::App* scans = app.add_subcommand(
+      "scans", "offline multi-view AO of registered scans (Sabbadin et al. 2016 Sec. 5)");
+  add_scans_options(*scans, scans_args);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -134,6 +175,7 @@ int run(int argc, char** argv) {
     }
     if (*devices) return static_cast<int>(run_devices());
     if (*config) return static_cast<int>(run_print_config(config_args));
+    if (*scans) return static_cast<int>(run_scans_command(scans_args));
   } catch (const Error& e) {
     return report(e.code(), e.what());
   } catch (const std::exception& e) {

@@ -217,6 +217,8 @@ ScansResult run_scans(const ScansOptions& options) {
       load_ptx(input, scans, result.scans);
     } else if (fs::is_directory(input)) {
       load_recording(input, options, scans, result.scans, result.frames_without_pose);
+    } else if (!fs::exists(input)) {
+      throw input_error(input + ": no such file or folder");
     } else {
       throw input_error(input + ": not a scan manifest (.json, .yaml), a MeshLab project (.mlp), "
                                 "a PTX file (.ptx) or a recording folder");
