@@ -1,6 +1,6 @@
 /// @file mvao_grid.h
-/// @brief The sparse multi-view AO grid of paper 000 Sec. 6: per world cell {sum AO w, sum w},
-/// keyed by the cell's 64-bit Morton code, accumulated frame by frame.
+/// @brief The sparse multi-view AO grid of Sabbadin et al. 2016 Sec. 6: per world cell {sum AO w,
+/// sum w}, keyed by the cell's 64-bit Morton code, accumulated frame by frame.
 #pragma once
 
 #include <array>
@@ -41,10 +41,10 @@ using CellIndex = std::array<std::int32_t, 3>;
 /// the lowest 6 bits (the low two bits of each axis), stored in Morton order, 768 bytes. Bricks
 /// sit in a pool of fixed-size chunks and never move; a hash of brick codes (BlockHashMap, 12
 /// bytes per entry) finds them, the layout of the TSDF's voxel blocks. So growing never moves a
-/// cell (a flat table of cells moves all of them when it doubles: frames of 30-50 ms on
-/// RedKitchen), a run of pixels shares one brick lookup, and the memory follows the surface (on
-/// RedKitchen 19 of a brick's 64 cells are observed, 35 MB for 862 000 cells, where the flat
-/// table held 80 MB). Not thread-safe: one writer (the mvao stage).
+/// cell (a flat table of cells moves all of them when it doubles, a frame-long stall), a run of
+/// pixels shares one brick lookup, and the memory follows the surface: a brick is made only where
+/// a cell of it is observed (BENCHMARKS.md compares the memory with a flat table). Not
+/// thread-safe: one writer (the mvao stage).
 /// Results are deterministic: pixels are accumulated serially in row-major order, and cells are
 /// visited in the order their bricks were made.
 class MvaoGrid {

@@ -1,6 +1,6 @@
 /// @file ssao.h
-/// @brief Screen-space ambient obscurance on camera-frame point maps (paper 000 Sec. 4) and the
-/// per-pixel view weights of the MVAO integration (paper 000 Eq. 10-11).
+/// @brief Screen-space ambient obscurance on camera-frame point maps (Sabbadin et al. 2016 Sec. 4)
+/// and the per-pixel view weights of the MVAO integration (Sabbadin et al. 2016 Eq. 10-11).
 ///
 /// Sampling: every evaluated pixel p (camera frame, metres) gets a screen-space disk of radius
 /// radius_px = fx * r_s / z (the sphere of radius r_s moved onto the optical axis at depth z,

@@ -1,6 +1,6 @@
 /// @file ao_eval.h
-/// @brief Agreement of a mesh's per-vertex AO with ray-traced obscurance (paper 000 Eq. 1) on the
-/// exact geometry of a synthetic scene.
+/// @brief Agreement of a mesh's per-vertex AO with ray-traced obscurance (Sabbadin et al. 2016 Eq.
+/// 1) on the exact geometry of a synthetic scene.
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,7 @@
 /// @file preprocess.h
-/// @brief Depth preprocessing: raw units to metres, border-outlier removal (paper 000 Sec. 6),
-/// bilateral filter, the 3-level tracking pyramid with vertex and normal maps (KinectFusion).
+/// @brief Depth preprocessing: raw units to metres, border-outlier removal (Sabbadin et al. 2016
+/// Sec. 6), bilateral filter, the 3-level tracking pyramid with vertex and normal maps
+/// (KinectFusion).
 ///
 /// Conventions of the whole fusion module: depth images hold metres along the optical axis as
 /// float, and 0.0f marks an invalid pixel. Every function here writes into a caller-owned output
@@ -33,13 +34,12 @@ namespace aoscan {
 void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
                      Image<float>& depth_m);
 
-/// Border-outlier removal of paper 000 Sec. 6: a valid pixel of depth c is removed (set to 0) when
-/// any of its 8 neighbours differs from it in depth by more than t = threshold_m +
+/// Border-outlier removal of Sabbadin et al. 2016 Sec. 6: a valid pixel of depth c is removed (set
+/// to 0) when any of its 8 neighbours differs from it in depth by more than t = threshold_m +
 /// threshold_per_m2 * c^2 (|a - b| > t, strictly). The paper's filter (a Kinect 2, t = 2 cm) is
-/// threshold_per_m2 = 0; the quadratic term follows the depth resolution of triangulating
-/// sensors, whose disparity steps grow with c^2 (Kinect v1: about 2.9 mm * c^2 per step, so at
-/// 3.5 m every pixel differs from some neighbour by more than 2 cm and a fixed 2 cm removes
-/// whole walls).
+/// threshold_per_m2 = 0; the quadratic term follows the depth resolution of triangulating sensors,
+/// whose disparity steps grow with c^2 (Kinect v1: about 2.9 mm * c^2 per step, so at 3.5 m every
+/// pixel differs from some neighbour by more than 2 cm and a fixed 2 cm removes whole walls).
 /// - Decisions are made on the input: a removed pixel still counts as a neighbour of the others.
 /// - Invalid neighbours (0) do not count: they carry no depth, so a hole next to a pixel is not a
 ///   discontinuity by itself (the paper's filter targets depth jumps between measured surfaces).
