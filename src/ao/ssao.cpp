@@ -101,12 +101,14 @@ inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vect
   return d2 > 0.0f;
 }
 
-/// sample_vector() for the estimators that do not read the sample's own normal.
-inline bool sample_vector(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
-                          float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
-                          float& d2) {
+/// sample_vector() for the slice estimators, which count every usable sample in `counted`.
+inline bool slice_sample(const PointMaps& maps, int x, int y, const Eigen::Vector2f& offset,
+                         float rx, float ry, const Eigen::Vector3f& p, Eigen::Vector3f& v,
+                         float& d2, int& counted) {
   std::size_t index;
-  return sample_vector(maps, x, y, offset, rx, ry, p, v, d2, index);
+  if (!sample_vector(maps, x, y, offset, rx, ry, p, v, d2, index)) return false;
+  ++counted;
+  return true;
 }
 
 /// Alchemy's area factor of a sample at camera-frame vertex q with raycast normal n_q:
@@ -232,8 +234,7 @@ PixelAo fast_horizon_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f
       for (int k = 0; k < steps; ++k) {
         Eigen::Vector3f v;
         float d2 = 0.0f;
-        if (!sample_vector(maps, x, y, so[k], rx, ry, p, v, d2)) continue;
-        ++counted;
+        if (!slice_sample(maps, x, y, so[k], rx, ry, p, v, d2, counted)) continue;
         const float d = std::sqrt(d2);
         const float keep = 1.0f - smoothstep01(d, s.t_max_m);
         const float shc = low_cos[side] + (v.dot(view) / d - low_cos[side]) * keep;
@@ -278,8 +279,7 @@ PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vect
       for (int k = 0; k < steps; ++k) {
         Eigen::Vector3f v;
         float d2 = 0.0f;
-        if (!sample_vector(maps, x, y, so[k], rx, ry, p, v, d2)) continue;
-        ++counted;
+        if (!slice_sample(maps, x, y, so[k], rx, ry, p, v, d2, counted)) continue;
         const Eigen::Vector3f vb = v - lowered;
         const float vb_len = vb.norm();
         if (!(vb_len > 0.0f)) continue;

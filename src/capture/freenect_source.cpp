@@ -82,12 +82,11 @@ class FreenectContext {
   freenect_context* ctx_ = nullptr;
 };
 
-class FreenectSource : public Source {
+class FreenectSource : public LiveMillimetreSource {
  public:
   FreenectSource(const std::string& uri, const FreenectUri& parsed)
-      : name_(uri),
-        depth_mm_(parsed.depth_mm),
-        intrinsics_(parsed.depth_mm ? kinect_rgb_intrinsics() : kinect_depth_intrinsics()) {
+      : LiveMillimetreSource(uri), depth_mm_(parsed.depth_mm) {
+    intrinsics_ = parsed.depth_mm ? kinect_rgb_intrinsics() : kinect_depth_intrinsics();
     const bool fake = fakenect_loaded();
     if (fake) {
       const std::string problem = fakenect_problem();
@@ -149,15 +148,9 @@ class FreenectSource : public Source {
     }
     target_ = nullptr;
     if (!delivered_) return Status::device_lost(lost_);
-    stamp_live_frame(frame, intrinsics_, static_cast<double>(ticks_) / kKinectClockHz, sequence_++,
-                     name_);
+    stamp(frame, static_cast<double>(ticks_) / kKinectClockHz, sequence_++);
     return Status::ok();
   }
-
-  std::string name() const override { return name_; }
-  const Intrinsics& intrinsics() const override { return intrinsics_; }
-  double depth_scale() const override { return kMillimetreDepthScale; }
-  bool live() const override { return true; }
 
  private:
   static void on_depth(freenect_device* device, void* depth, std::uint32_t timestamp) {
@@ -189,9 +182,7 @@ class FreenectSource : public Source {
     delivered_ = true;
   }
 
-  std::string name_;
   bool depth_mm_;
-  Intrinsics intrinsics_;
   DeviceClaim claim_;
   std::unique_ptr<FreenectContext> context_;
   freenect_device* device_ = nullptr;

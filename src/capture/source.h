@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "core/depth_frame.h"
 #include "core/mesh.h"
@@ -43,18 +44,33 @@ class Source {
 /// Z16).
 inline constexpr double kMillimetreDepthScale = 1000.0;
 
-/// Stamps a frame of a live millimetre camera: depth_scale kMillimetreDepthScale, the camera's
-/// intrinsics, the driver's timestamp and sequence number, origin = the camera's name and no
-/// ground truth. The depth (and arrived_at) are the caller's.
-inline void stamp_live_frame(DepthFrame& frame, const Intrinsics& intrinsics, double timestamp_s,
-                             std::uint64_t sequence, const std::string& origin) {
-  frame.depth_scale = kMillimetreDepthScale;
-  frame.intrinsics = intrinsics;
-  frame.timestamp_s = timestamp_s;
-  frame.sequence = sequence;
-  frame.origin = origin;
-  frame.T_world_camera_gt.reset();
-}
+/// What every live camera delivering millimetres shares: its name and calibration, depth_scale
+/// kMillimetreDepthScale, live() true, and how its frames are stamped.
+class LiveMillimetreSource : public Source {
+ public:
+  std::string name() const override { return name_; }
+  const Intrinsics& intrinsics() const override { return intrinsics_; }
+  double depth_scale() const override { return kMillimetreDepthScale; }
+  bool live() const override { return true; }
+
+ protected:
+  explicit LiveMillimetreSource(std::string name) : name_(std::move(name)) {}
+
+  /// Stamps a frame: depth_scale, the camera's intrinsics, the driver's timestamp and sequence
+  /// number, origin = the camera's name, no ground truth. The depth (and arrived_at) are the
+  /// caller's.
+  void stamp(DepthFrame& frame, double timestamp_s, std::uint64_t sequence) const {
+    frame.depth_scale = kMillimetreDepthScale;
+    frame.intrinsics = intrinsics_;
+    frame.timestamp_s = timestamp_s;
+    frame.sequence = sequence;
+    frame.origin = name_;
+    frame.T_world_camera_gt.reset();
+  }
+
+  std::string name_;
+  Intrinsics intrinsics_;
+};
 
 /// Opens SOURCE as the contract spells it: a TUM-layout folder, `synth:NAME?k=v&...`,
 /// `FILE.oni` and live camera URIs. Throws Error: usage_error for an unknown synth scene or

@@ -61,9 +61,9 @@ class Fd {
   int fd_;
 };
 
-class V4l2Source : public Source {
+class V4l2Source : public LiveMillimetreSource {
  public:
-  V4l2Source(const std::string& uri, const std::string& node) : name_(uri) {
+  V4l2Source(const std::string& uri, const std::string& node) : LiveMillimetreSource(uri) {
     try {
       start(uri, node);
     } catch (...) {
@@ -203,18 +203,13 @@ class V4l2Source : public Source {
     if (buf.index < buffers_.size() && xioctl(fd, VIDIOC_QBUF, &buf) < 0)
       return lose(name_ + ": VIDIOC_QBUF failed (unplugged?): " + errno_text());
     if (!status.is_ok()) return status;
-    stamp_live_frame(frame, intrinsics_,
-                     static_cast<double>(buf.timestamp.tv_sec) +
-                         static_cast<double>(buf.timestamp.tv_usec) * 1e-6,
-                     buf.sequence, name_);
+    stamp(frame,
+          static_cast<double>(buf.timestamp.tv_sec) +
+              static_cast<double>(buf.timestamp.tv_usec) * 1e-6,
+          buf.sequence);
     frame.arrived_at = woke;
     return Status::ok();
   }
-
-  std::string name() const override { return name_; }
-  const Intrinsics& intrinsics() const override { return intrinsics_; }
-  double depth_scale() const override { return kMillimetreDepthScale; }
-  bool live() const override { return true; }
 
  private:
   struct Mapped {
@@ -236,13 +231,11 @@ class V4l2Source : public Source {
     buffers_.clear();
   }
 
-  std::string name_;
   DeviceClaim claim_;
   std::unique_ptr<Fd> fd_;
   int width_ = 0;
   int height_ = 0;
   int bytes_per_line_ = 0;
-  Intrinsics intrinsics_;
   std::vector<Mapped> buffers_;
   bool streaming_ = false;
   std::string lost_;

@@ -134,35 +134,48 @@ IcpSystem reduce_rows(const PointMaps& frame, int step, const RowFn& row) {
 
 }  // namespace
 
-IcpSystem icp_system_portable(const PointMaps& frame, const PointMaps& model,
-                              const Pose& T_model_camera, const TrackingConfig& config,
-                              int pixel_step) {
+namespace {
+
+/// The ICP system summed row by row: `row(assoc, acc, v, n, x0, width, step)` adds one row's
+/// correspondences (the frame pixels x0, x0 + step, ...) to `acc`.
+template <class RowFn>
+IcpSystem icp_system_by_rows(const PointMaps& frame, const PointMaps& model,
+                             const Pose& T_model_camera, const TrackingConfig& config,
+                             int pixel_step, RowFn row) {
   check_sizes(frame, model);
   const int step = std::max(1, pixel_step);
   const Associator assoc(model, T_model_camera, config);
   const int width = frame.vertices.width();
   return reduce_rows(frame, step,
                      [&](Accumulator<double>& acc, const float* v, const float* n, int x0) {
-                       // Float sums over one row (as many terms as the image is wide).
-                       Accumulator<float> row;
-                       assoc.row_portable(v, n, x0, width, step, row);
-                       acc.add(row);
+                       row(assoc, acc, v, n, x0, width, step);
                      });
+}
+
+}  // namespace
+
+IcpSystem icp_system_portable(const PointMaps& frame, const PointMaps& model,
+                              const Pose& T_model_camera, const TrackingConfig& config,
+                              int pixel_step) {
+  return icp_system_by_rows(frame, model, T_model_camera, config, pixel_step,
+                            [](const Associator& assoc, Accumulator<double>& acc, const float* v,
+                               const float* n, int x0, int width, int step) {
+                              // Float sums over one row (as many terms as the image is wide).
+                              Accumulator<float> row;
+                              assoc.row_portable(v, n, x0, width, step, row);
+                              acc.add(row);
+                            });
 }
 
 IcpSystem icp_system(const PointMaps& frame, const PointMaps& model, const Pose& T_model_camera,
                      const TrackingConfig& config, int pixel_step) {
 #if defined(AOSCAN_ICP_AVX2)
-  if (cpu_has_avx2_fma()) {
-    check_sizes(frame, model);
-    const int step = std::max(1, pixel_step);
-    const Associator assoc(model, T_model_camera, config);
-    const int width = frame.vertices.width();
-    return reduce_rows(frame, step,
-                       [&](Accumulator<double>& acc, const float* v, const float* n, int x0) {
-                         icp_detail::row_avx2(assoc, v, n, x0, width, step, acc);
-                       });
-  }
+  if (cpu_has_avx2_fma())
+    return icp_system_by_rows(frame, model, T_model_camera, config, pixel_step,
+                              [](const Associator& assoc, Accumulator<double>& acc,
+                                 const float* v, const float* n, int x0, int width, int step) {
+                                icp_detail::row_avx2(assoc, v, n, x0, width, step, acc);
+                              });
 #endif
   return icp_system_portable(frame, model, T_model_camera, config, pixel_step);
 }

@@ -375,11 +375,9 @@ using detail::RaycastRows;
 void raycast_row_portable(TsdfSampler& sampler, const RaycastRows& rows, int y) {
   const RaySetup& setup = rows.setup;
   for (int x = 0; x < rows.width; ++x) {
-    float s_begin, s_end;
-    rows.range(x, y, s_begin, s_end);
-    if (!(s_begin < s_end)) continue;
-    const Ray ray = setup.ray(x, y);
-    const float d = rows.hint(x, y);
+    Ray ray;
+    float s_begin, s_end, d;
+    if (!rows.pixel(x, y, ray, s_begin, s_end, d)) continue;
     if (detail::usable_hint(d)) {
       // The frame saw this pixel's surface at depth d and free space in front of it: the model's
       // first crossing is next to d, or the model is unsure here.

@@ -196,11 +196,9 @@ void raycast_row_avx2(TsdfSampler& sampler, const RaycastRows& rows, int y) {
     lanes.count = 0;
   };
   for (int x = 0; x < rows.width; ++x) {
-    float s_begin, s_end;
-    rows.range(x, y, s_begin, s_end);
-    if (!(s_begin < s_end)) continue;
-    const Ray ray = setup.ray(x, y);
-    const float d = rows.hint(x, y);
+    Ray ray;
+    float s_begin, s_end, d;
+    if (!rows.pixel(x, y, ray, s_begin, s_end, d)) continue;
     if (usable_hint(d)) {
       const int l = lanes.count++;
       lanes.x[l] = x;

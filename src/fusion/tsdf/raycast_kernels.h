@@ -93,6 +93,15 @@ struct RaycastRows {
   }
   /// The hint at pixel (x, y), 0 without a hint.
   float hint(int x, int y) const { return depth_hint_m != nullptr ? (*depth_hint_m)(x, y) : 0.0f; }
+  /// Pixel (x, y)'s ray, its depth range [s_begin, s_end) and its hint (0 without one); false
+  /// when the range is empty (no block is seen through the pixel).
+  bool pixel(int x, int y, Ray& ray, float& s_begin, float& s_end, float& hint_m) const {
+    range(x, y, s_begin, s_end);
+    if (!(s_begin < s_end)) return false;
+    ray = setup.ray(x, y);
+    hint_m = hint(x, y);
+    return true;
+  }
 };
 
 /// A depth hint that a ray searches next to.
