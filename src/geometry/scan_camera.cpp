@@ -66,7 +66,11 @@ bool ScanCamera::pixel_of(const Eigen::Vector3f& p, int& x, int& y) const {
     u += 0.5f;  // pixel centres at integers: pixel x covers [x - 0.5, x + 0.5)
     v += 0.5f;
   }
-  if (!(u >= 0.0f && v >= 0.0f)) return false;
+  // Compare as floats before converting: a point far off a pinhole camera's axis projects beyond
+  // any int.
+  if (!(u >= 0.0f && v >= 0.0f && u <= static_cast<float>(width) &&
+        v <= static_cast<float>(height)))
+    return false;
   x = static_cast<int>(u);
   y = static_cast<int>(v);
   if (projection == ScanProjection::kEquirectangular) {

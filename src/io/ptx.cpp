@@ -82,7 +82,7 @@ std::vector<PtxScan> read_ptx(const std::string& path) {
     if (!reader.next(v, 1, 1)) reader.fail("the file ends inside a scan header");
     const double rows = v[0];
     if (!(columns >= 1 && rows >= 1 && columns == std::floor(columns) &&
-          rows == std::floor(rows) && columns * rows <= 1e10))
+          rows == std::floor(rows) && columns <= 1e9 && rows <= 1e9 && columns * rows <= 1e10))
       reader.fail("the grid size must be two positive whole numbers");
     scan.columns = static_cast<int>(columns);
     scan.rows = static_cast<int>(rows);
