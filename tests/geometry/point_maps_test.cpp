@@ -19,21 +19,9 @@ namespace {
 
 const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
 
-double angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-/// The plane n . p = d facing the camera, for the tests below.
-struct Plane {
-  Eigen::Vector3d n;
-  double d;
-};
-
-const Plane kPlanes[] = {
-    {Eigen::Vector3d(0, 0, -1), -2.0},                      // fronto-parallel at 2 m
-    {Eigen::Vector3d(0.3, -0.2, -1).normalized(), -1.5},    // tilted
-    {Eigen::Vector3d(-0.8, 0.1, -0.6).normalized(), -1.2},  // strongly slanted (53 degrees)
-};
+using test::angle;
+using test::kPlanes;
+using test::Plane;
 
 TEST(VertexNormalMaps, PlaneVerticesLieOnThePlaneAndNormalsEqualItsNormal) {
   for (const Plane& plane : kPlanes) {
@@ -159,10 +147,6 @@ TEST(Downsample, AveragesOnlyTheSameSurface) {
   EXPECT_EQ(out(0, 1), 0.0f);
   EXPECT_EQ(out(1, 1), 1.7f);  // exactly
 }
-
-
-
-
 
 }  // namespace
 }  // namespace aoscan

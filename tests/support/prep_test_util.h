@@ -87,4 +87,22 @@ inline Intrinsics redkitchen_intrinsics() {
   return Intrinsics{640, 480, 585.0, 585.0, 320.0, 240.0};
 }
 
+/// Angle between two vectors (radians).
+inline double angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+/// The plane n . p = d facing the camera.
+struct Plane {
+  Eigen::Vector3d n;
+  double d;
+};
+
+/// Planes of the point-map and pyramid tests.
+inline const Plane kPlanes[] = {
+    {Eigen::Vector3d(0, 0, -1), -2.0},                      // fronto-parallel at 2 m
+    {Eigen::Vector3d(0.3, -0.2, -1).normalized(), -1.5},    // tilted
+    {Eigen::Vector3d(-0.8, 0.1, -0.6).normalized(), -1.2},  // strongly slanted (53 degrees)
+};
+
 }  // namespace aoscan::test

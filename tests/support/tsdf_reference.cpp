@@ -16,11 +16,26 @@
 #include "core/status.h"
 #include "fusion/tsdf/grid_traversal.h"
 #include "fusion/tsdf/marching_cubes.h"
+#include "fusion/tsdf/marching_cubes_kernels.h"
 #include "fusion/tsdf/raycast.h"
+#include "fusion/tsdf/raycast_kernels.h"
+#include "fusion/tsdf/tsdf_integrator_kernels.h"
 #include "fusion/tsdf/tsdf_sampler.h"
 
 namespace aoscan {
 namespace test {
+
+using detail::check_inputs;
+using detail::corner_offset;
+using detail::edge_vertex;
+using detail::prepare;
+using detail::Ray;
+using detail::RaySetup;
+using detail::refine_crossing;
+using detail::usable;
+using detail::within_grid;
+using detail::write_hit;
+
 namespace {
 
 // ---- Integration ------------------------------------------------------------------------------
@@ -130,164 +145,12 @@ void update_block(TsdfVolume& volume, int index, const Image<float>& depth_m,
 
 // ---- Raycast ----------------------------------------------------------------------------------
 
-/// Limit of the refinement iterations after a zero crossing is bracketed ...
-constexpr int kRefineIterations = 4;
-/// ... which stop when the bracket is this short (depth along the optical axis, m) or the
-/// sample's distance to the surface is below it (m).
-constexpr float kRefineTolerance = 1e-4f;
-
-/// A camera ray in voxel units: g(s) = origin + s * dir, where s is the depth along the optical
-/// axis (m).
-struct Ray {
-  Eigen::Vector3f origin;
-  Eigen::Vector3f dir;
-  Eigen::Vector3f ray_camera;  ///< (x/z, y/z, 1) of the pixel
-  float metres_per_s;          ///< |ray_camera|: metres travelled per unit of s
-};
-
-/// Finds the zero crossing between s0 (tsdf f0 >= 0) and s1 (tsdf f1 < 0) on trilinear samples by
-/// the Illinois variant of regula falsi (converges where the field is not linear, e.g. at grazing
-/// angles); a bracket within one voxel takes a single secant step.
-float refine_crossing(TsdfSampler& sampler, const Ray& ray, float voxel_size, float truncation,
-                      float s0, float f0, float s1, float f1) {
-  // Within a voxel the interpolated field is close to linear: one secant step is enough.
-  if ((s1 - s0) * ray.metres_per_s <= voxel_size) return s0 + (s1 - s0) * f0 / (f0 - f1);
-  int side = 0;
-  for (int i = 0; i < kRefineIterations; ++i) {
-    const float s = s0 + (s1 - s0) * f0 / (f0 - f1);
-    float f = 0;
-    if (!sampler.trilinear(ray.origin + s * ray.dir, f)) break;
-    if (std::abs(f) * truncation < kRefineTolerance) return s;
-    if (f > 0) {
-      s0 = s;
-      f0 = f;
-      if (side == 1) f1 *= 0.5f;
-      side = 1;
-    } else {
-      s1 = s;
-      f1 = f;
-      if (side == -1) f0 *= 0.5f;
-      side = -1;
-    }
-    if (s1 - s0 < kRefineTolerance) break;
-  }
-  return s0 + (s1 - s0) * f0 / (f0 - f1);
-}
-
-void clear_pixel(RaycastResult& r, int x, int y) {
-  r.depth_m(x, y) = 0.0f;
-  r.maps.vertices(x, y).setZero();
-  r.maps.normals(x, y).setZero();
-}
-
-/// Writes depth, vertex and normal of a hit at depth s (normal: TSDF gradient by central
-/// differences around the nearest voxel, 7 voxel reads); clears the pixel when it is not
-/// available.
-void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matrix3f& R_camera_world,
-               RaycastResult& r, int x, int y) {
-  Eigen::Vector3f grad;
-  if (!sampler.nearest_gradient(ray.origin + s * ray.dir, grad) || !(grad.squaredNorm() > 1e-12f)) {
-    clear_pixel(r, x, y);
-    return;
-  }
-  const Eigen::Vector3f vertex = ray.ray_camera * s;
-  Eigen::Vector3f normal = (R_camera_world * grad).normalized();
-  if (normal.dot(vertex) > 0.0f) normal = -normal;
-  r.depth_m(x, y) = s;
-  r.maps.vertices(x, y) = vertex;
-  r.maps.normals(x, y) = normal;
-}
-
-/// Everything per frame that the raycast needs.
-struct RaySetup {
-  Eigen::Matrix3f R_world_camera;
-  Eigen::Matrix3f R_camera_world;
-  Eigen::Vector3f origin_voxels;
-  float inv_voxel;
-  float fx_inv, fy_inv, cx, cy;
-
-  RaySetup(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera) {
-    R_world_camera = T_world_camera.rotation().cast<float>();
-    R_camera_world = R_world_camera.transpose();
-    inv_voxel = 1.0f / volume.voxel_size_m();
-    origin_voxels = T_world_camera.translation().cast<float>() * inv_voxel;
-    fx_inv = static_cast<float>(1.0 / k.fx);
-    fy_inv = static_cast<float>(1.0 / k.fy);
-    cx = static_cast<float>(k.cx);
-    cy = static_cast<float>(k.cy);
-  }
-  Ray ray(int x, int y) const {
-    Ray r;
-    r.ray_camera = Eigen::Vector3f((static_cast<float>(x) - cx) * fx_inv,
-                                   (static_cast<float>(y) - cy) * fy_inv, 1.0f);
-    r.origin = origin_voxels;
-    r.dir = R_world_camera * r.ray_camera * inv_voxel;
-    r.metres_per_s = r.ray_camera.norm();
-    return r;
-  }
-};
-
-void prepare(const Intrinsics& intrinsics, const Pose& T_world_camera, RaycastResult& result) {
-  result.T_world_camera = T_world_camera;
-  result.maps.intrinsics = intrinsics;
-  result.depth_m.resize(intrinsics.width, intrinsics.height, 0.0f);
-  result.maps.vertices.resize(intrinsics.width, intrinsics.height, Eigen::Vector3f::Zero());
-  result.maps.normals.resize(intrinsics.width, intrinsics.height, Eigen::Vector3f::Zero());
-  result.hits = 0;
-}
-
-void check_inputs(const Intrinsics& intrinsics, const FusionConfig& config) {
-  if (!intrinsics.valid()) throw usage_error("raycast: invalid intrinsics");
-  if (!(config.raycast_min_depth_m < config.raycast_max_depth_m))
-    throw usage_error("fusion.raycast_min_depth_m must be below fusion.raycast_max_depth_m");
-}
-
-/// True when every ray position stays far inside the int range of voxel coordinates.
-bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera,
-                 const FusionConfig& config) {
-  const double rx = std::max(std::abs(k.cx), std::abs(k.width - k.cx)) / k.fx;
-  const double ry = std::max(std::abs(k.cy), std::abs(k.height - k.cy)) / k.fy;
-  const double reach = T_world_camera.translation().cwiseAbs().maxCoeff() +
-                       std::sqrt(1.0 + rx * rx + ry * ry) * config.raycast_max_depth_m;
-  return reach / volume.voxel_size_m() < static_cast<double>(1 << 23);
-}
-
-// ---- Marching cubes ---------------------------------------------------------------------------
-
-Eigen::Vector3i corner_offset(int corner) {
-  return {corner & 1, (corner >> 1) & 1, (corner >> 2) & 1};
-}
-
-/// Vertex on the grid edge from voxel g along `axis` (world metres) and its unit normal.
-void edge_vertex(TsdfSampler& sampler, const Eigen::Vector3i& g, int axis, float f0, float f1,
-                 float voxel_size, Eigen::Vector3f& position, Eigen::Vector3f& normal) {
-  const float t = f0 / (f0 - f1);
-  Eigen::Vector3f p = g.cast<float>();
-  p[axis] += t;
-  position = p * voxel_size;
-  Eigen::Vector3f grad;
-  if (sampler.gradient(p, grad) && grad.squaredNorm() > 1e-12f) {
-    normal = grad.normalized();
-  } else {
-    normal = Eigen::Vector3f::Zero();
-    normal[axis] = f1 > f0 ? 1.0f : -1.0f;
-  }
-}
-
-bool usable(const Voxel* v, float min_weight) {
-  return v != nullptr && v->weight() >= min_weight && v->count > 0;
-}
-
 }  // namespace
 
 IntegrateStats integrate_reference(TsdfVolume& volume, const Image<float>& depth_m,
                                    const Intrinsics& intrinsics, const Pose& T_world_camera) {
   IntegrateStats stats;
-  if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
-    throw usage_error("integrate: depth image is " + std::to_string(depth_m.width()) + "x" +
-                      std::to_string(depth_m.height()) + " but the intrinsics are " +
-                      std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
-  if (!T_world_camera.finite()) {
+  if (!detail::integration_input_usable(depth_m, intrinsics, T_world_camera)) {
     stats.skipped = true;
     return stats;
   }

@@ -8,9 +8,14 @@
 
 #include <tbb/parallel_for.h>
 
+#include "fusion/tsdf/marching_cubes_kernels.h"
 #include "fusion/tsdf/tsdf_sampler.h"
 
 namespace aoscan {
+
+using detail::corner_offset;
+using detail::edge_vertex;
+using detail::usable;
 
 const std::array<std::array<int, 2>, 12> kCubeEdges = {{{0, 1},
                                                         {2, 3},
@@ -86,30 +91,6 @@ MarchingCubesTable build_table() {
     }
   }
   return table;
-}
-
-Eigen::Vector3i corner_offset(int corner) {
-  return {corner & 1, (corner >> 1) & 1, (corner >> 2) & 1};
-}
-
-/// Vertex on the grid edge from voxel g along `axis` (world metres) and its unit normal.
-void edge_vertex(TsdfSampler& sampler, const Eigen::Vector3i& g, int axis, float f0, float f1,
-                 float voxel_size, Eigen::Vector3f& position, Eigen::Vector3f& normal) {
-  const float t = f0 / (f0 - f1);
-  Eigen::Vector3f p = g.cast<float>();
-  p[axis] += t;
-  position = p * voxel_size;
-  Eigen::Vector3f grad;
-  if (sampler.gradient(p, grad) && grad.squaredNorm() > 1e-12f) {
-    normal = grad.normalized();
-  } else {
-    normal = Eigen::Vector3f::Zero();
-    normal[axis] = f1 > f0 ? 1.0f : -1.0f;
-  }
-}
-
-bool usable(const Voxel* v, float min_weight) {
-  return v != nullptr && v->weight() >= min_weight && v->count > 0;
 }
 
 /// Per-block output of the vertex pass.

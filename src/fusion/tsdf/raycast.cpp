@@ -29,6 +29,8 @@ constexpr int kRefineIterations = 4;
 /// sample's distance to the surface is below it (m).
 constexpr float kRefineTolerance = 1e-4f;
 
+}  // namespace
+
 /// Finds the zero crossing between s0 (tsdf f0 >= 0) and s1 (tsdf f1 < 0) on trilinear samples by
 /// the Illinois variant of regula falsi (converges where the field is not linear, e.g. at grazing
 /// angles); a bracket within one voxel takes a single secant step.
@@ -96,6 +98,8 @@ void check_inputs(const Intrinsics& intrinsics, const FusionConfig& config) {
   if (!(config.raycast_min_depth_m < config.raycast_max_depth_m))
     throw usage_error("fusion.raycast_min_depth_m must be below fusion.raycast_max_depth_m");
 }
+
+namespace {
 
 /// Per-tile [min, max] depth of the allocated blocks' boxes (voxel-centre box [8b, 8b + 8] per
 /// axis: every position whose trilinear sample reads that block's lowest voxel). Tiles without a
@@ -195,6 +199,8 @@ void depth_bounds(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_w
   }
 }
 
+}  // namespace
+
 /// True when every ray position stays far inside the int range of voxel coordinates.
 bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera,
                  const FusionConfig& config) {
@@ -204,6 +210,8 @@ bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_wo
                        std::sqrt(1.0 + rx * rx + ry * ry) * config.raycast_max_depth_m;
   return reach / volume.voxel_size_m() < static_cast<double>(1 << 23);
 }
+
+namespace {
 
 /// Looks for a + to - crossing of the trilinear field between depths s0 and s1 in steps of half
 /// a voxel; writes the hit and returns true when it finds one (and the hit has a normal).

@@ -1,6 +1,7 @@
 /// @file raycast_kernels.h
-/// @brief Internal to the raycast: what its portable code (raycast.cpp) and its AVX2 hinted-ray
-/// search (raycast_avx2.cpp) share. Not for use outside src/fusion/tsdf/.
+/// @brief Internal to the raycast: what its portable code (raycast.cpp), its AVX2 hinted-ray
+/// search (raycast_avx2.cpp) and the plain reference of the tests (tests/support) share. Not for
+/// other code.
 #pragma once
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/pose.h"
+#include "fusion/tsdf/tsdf_config.h"
 #include "fusion/tsdf/tsdf_sampler.h"
 #include "fusion/tsdf/tsdf_volume.h"
 #include "geometry/point_maps.h"
@@ -37,6 +39,25 @@ struct Ray {
   Eigen::Vector3f ray_camera;  ///< (x/z, y/z, 1) of the pixel
   float metres_per_s;          ///< |ray_camera|: metres travelled per unit of s
 };
+
+/// Finds the zero crossing between s0 (tsdf f0 >= 0) and s1 (tsdf f1 < 0) on trilinear samples by
+/// the Illinois variant of regula falsi; a bracket within one voxel takes a single secant step.
+float refine_crossing(TsdfSampler& sampler, const Ray& ray, float voxel_size, float truncation,
+                      float s0, float f0, float s1, float f1);
+/// Marks pixel (x, y) of `r` as having no surface.
+void clear_pixel(RaycastResult& r, int x, int y);
+/// Writes depth, vertex and normal of a hit at depth s (normal: TSDF gradient by central
+/// differences around the nearest voxel, 7 voxel reads); clears the pixel when it is not
+/// available.
+void write_hit(TsdfSampler& sampler, const Ray& ray, float s, const Eigen::Matrix3f& R_camera_world,
+               RaycastResult& r, int x, int y);
+/// Sizes `result` for `intrinsics` and sets its pose; the pixels are the caller's to write.
+void prepare(const Intrinsics& intrinsics, const Pose& T_world_camera, RaycastResult& result);
+/// Throws usage_error on invalid intrinsics or an empty depth range.
+void check_inputs(const Intrinsics& intrinsics, const FusionConfig& config);
+/// True when every ray position stays far inside the int range of voxel coordinates.
+bool within_grid(const TsdfVolume& volume, const Intrinsics& k, const Pose& T_world_camera,
+                 const FusionConfig& config);
 
 /// Everything per frame that the raycasts need.
 struct RaySetup {

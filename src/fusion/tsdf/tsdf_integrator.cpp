@@ -15,6 +15,15 @@
 #include "geometry/simd.h"
 
 namespace aoscan {
+
+bool detail::integration_input_usable(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                                      const Pose& T_world_camera) {
+  if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
+    throw usage_error("integrate: depth image is " + std::to_string(depth_m.width()) + "x" +
+                      std::to_string(depth_m.height()) + " but the intrinsics are " +
+                      std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+  return T_world_camera.finite();
+}
 namespace {
 
 using detail::BandRays;
@@ -234,11 +243,7 @@ IntegrateStats TsdfIntegrator::allocate_band(TsdfVolume& volume, const Image<flo
                                              const Pose& T_world_camera, bool simd) {
   IntegrateStats stats;
   visible_.clear();
-  if (depth_m.width() != intrinsics.width || depth_m.height() != intrinsics.height)
-    throw usage_error("integrate: depth image is " + std::to_string(depth_m.width()) + "x" +
-                      std::to_string(depth_m.height()) + " but the intrinsics are " +
-                      std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
-  if (!T_world_camera.finite()) {
+  if (!detail::integration_input_usable(depth_m, intrinsics, T_world_camera)) {
     stats.skipped = true;
     return stats;
   }

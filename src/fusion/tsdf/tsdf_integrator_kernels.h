@@ -5,6 +5,9 @@
 
 #include <Eigen/Core>
 
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/pose.h"
 #include "fusion/tsdf/tsdf_volume.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -57,6 +60,12 @@ void update_block_avx2(const BlockProjection& b, Voxel* voxels);
 /// are inside the packable block range in the high byte. Only on a CPU with AVX2.
 int band_segments_avx2(const float* depth, int x0, const BandRays& r, BandSegments8& out);
 #endif
+
+/// The integration's input check, shared with the plain reference of the tests: throws
+/// usage_error when the depth's size differs from the intrinsics; false (nothing to do) when the
+/// pose is not finite.
+bool integration_input_usable(const Image<float>& depth_m, const Intrinsics& intrinsics,
+                              const Pose& T_world_camera);
 
 }  // namespace detail
 }  // namespace aoscan

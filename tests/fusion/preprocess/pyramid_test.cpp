@@ -18,25 +18,9 @@ namespace {
 
 const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
 
-double angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-/// The plane n . p = d facing the camera, for the tests below.
-struct Plane {
-  Eigen::Vector3d n;
-  double d;
-};
-
-const Plane kPlanes[] = {
-    {Eigen::Vector3d(0, 0, -1), -2.0},                      // fronto-parallel at 2 m
-    {Eigen::Vector3d(0.3, -0.2, -1).normalized(), -1.5},    // tilted
-    {Eigen::Vector3d(-0.8, 0.1, -0.6).normalized(), -1.2},  // strongly slanted (53 degrees)
-};
-
-
-
-
+using test::angle;
+using test::kPlanes;
+using test::Plane;
 
 TEST(Pyramid, LevelsIntrinsicsAndMapsAreConsistent) {
   const Plane& plane = kPlanes[1];
@@ -119,27 +103,6 @@ TEST(Pyramid, TinyImagesDoNotCrash) {
     EXPECT_EQ(pyramid.maps[2].normals.height(), h / 4);
   }
 }
-
-}  // namespace
-}  // namespace aoscan
-
-namespace aoscan {
-namespace {
-
-/// Largest absolute component difference of two vector maps, and whether their zero (invalid)
-/// pixels coincide.
-float max_difference(const Image<Eigen::Vector3f>& a, const Image<Eigen::Vector3f>& b,
-                     bool& same_zeros) {
-  float worst = 0.0f;
-  same_zeros = a.width() == b.width() && a.height() == b.height();
-  for (int y = 0; same_zeros && y < a.height(); ++y)
-    for (int x = 0; x < a.width(); ++x) {
-      if (a(x, y).isZero() != b(x, y).isZero()) same_zeros = false;
-      worst = std::max(worst, (a(x, y) - b(x, y)).cwiseAbs().maxCoeff());
-    }
-  return worst;
-}
-
 
 }  // namespace
 }  // namespace aoscan
