@@ -10,19 +10,16 @@
 #include <tbb/parallel_for.h>
 
 #include "ao/ssao.h"
+#include "ao/ssao_kernels.h"
 
 namespace aoscan {
 namespace {
 
-/// Widest disk in pixels: a point nearer than r_s would otherwise sample the whole map.
-constexpr float kMaxRadiusPx = 160.0f;
-/// Alchemy: epsilon of the 1 / (d^2 + eps r_s^2) term, relative to r_s^2 (as compute_ssao()).
-constexpr float kAlchemyEpsilon = 0.01f;
+using detail::kAlchemyEpsilon;
+using detail::kMaxRadiusPx;
+using detail::pattern_class;
+using detail::smoothstep01;
 
-float smoothstep(float d, float t_max) {
-  const float t = std::min(std::max(d / t_max, 0.0f), 1.0f);
-  return t * t * (3.0f - 2.0f * t);
-}
 
 /// The unsmoothed SSAO of pixel (x, y).
 float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& pattern, int x,
@@ -42,7 +39,7 @@ float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& p
   const float bias_m =
       estimator == AoEstimator::kPaper ? 0.0f : static_cast<float>(config.bias) * depth;
   const float r2eps = kAlchemyEpsilon * radius_m * radius_m;
-  const int cls = (x & 3) + kSsaoPatternTile * (y & 3);
+  const int cls = pattern_class(x, y);
   const bool wrap = camera.projection == ScanProjection::kEquirectangular;
   float sum = 0.0f;
   int counted = 0;
@@ -63,7 +60,7 @@ float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& p
       continue;
     }
     const float d = std::sqrt(d2);
-    const float rho = smoothstep(d, t_max);
+    const float rho = smoothstep01(d, t_max);
     sum += estimator == AoEstimator::kPaper ? rho * (1.0f - std::max(nv / d, 0.0f))
                                             : std::max(nv / d, 0.0f) * (1.0f - rho);
   }

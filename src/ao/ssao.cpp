@@ -11,17 +11,22 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 
+#include "ao/ssao_kernels.h"
 #include "geometry/normal_smoothing.h"
 
 namespace aoscan {
 namespace {
 
+using detail::area_factor;
+using detail::kAlchemyEpsilon;
+using detail::kBlockOrder;
+using detail::kHalfPiF;
+using detail::kMaxRadiusPx;
+using detail::pattern_class;
+using detail::PixelAo;
+using detail::smoothstep01;
+
 constexpr double kPi = 3.14159265358979323846;
-constexpr float kHalfPiF = 1.57079632679490f;
-/// Largest disk radius in pixels (points nearer than ~0.25 m would otherwise sample whole images).
-constexpr float kMaxRadiusPx = 160.0f;
-/// Alchemy: epsilon of the 1 / (d^2 + eps r_s^2) term, relative to r_s^2.
-constexpr float kAlchemyEpsilon = 0.01f;
 /// Horizon estimator: steps per slice side.
 constexpr int kHorizonSteps = 4;
 
@@ -34,15 +39,6 @@ double fract(double v) {
   return v - std::floor(v);
 }
 
-float smoothstep01(float d, float t_max) {
-  const float u = std::min(std::max(d / t_max, 0.0f), 1.0f);
-  return u * u * (3.0f - 2.0f * u);
-}
-
-int pattern_class(int x, int y) {
-  return (x & 3) + kSsaoPatternTile * (y & 3);
-}
-
 /// Nearest pixel of an offset in units of the disk radius, centre + floor(offset * radius_px +
 /// 0.5), without a libm call: floor by truncation and a correction, exactly std::floor for the
 /// arguments that occur (|offset| <= 1, radius <= kMaxRadiusPx), so it gives the pixel of the
@@ -53,22 +49,12 @@ inline int offset_px_fast(int centre, float offset, float radius_px) {
   return centre + t - (v < static_cast<float>(t) ? 1 : 0);
 }
 
-/// Order in which the pixels of a 2x2 block are tried at stride 2 (rotating with the frame).
-constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
-
 /// Everything a per-pixel evaluation needs, fixed for the frame.
 struct FrameSetup {
   const PointMaps* maps;
   const SsaoPattern* pattern;
   float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
   float area_min_cos;
-};
-
-/// One pixel's SSAO and the share of its samples that were counted (inside the image, on valid
-/// pixels).
-struct PixelAo {
-  float ao;
-  float coverage;
 };
 
 /// The weight of an evaluated pixel: Eq. 10-11 times the coverage weight.
@@ -109,13 +95,6 @@ inline bool slice_sample(const PointMaps& maps, int x, int y, const Eigen::Vecto
   if (!sample_vector(maps, x, y, offset, rx, ry, p, v, d2, index)) return false;
   ++counted;
   return true;
-}
-
-/// Alchemy's area factor of a sample at camera-frame vertex q with raycast normal n_q:
-/// 1 / max(cos theta_q, min_cos), cos theta_q = n_q . (-q / |q|). A zero or non-finite normal
-/// gives min_cos (std::max keeps its first argument against NaN).
-inline float area_factor(const Eigen::Vector3f& q, const Eigen::Vector3f& n_q, float min_cos) {
-  return 1.0f / std::max(min_cos, -n_q.dot(q) / q.norm());
 }
 
 /// A GTAO slice: the plane through the view direction and the screen direction `dir`, with the

@@ -9,38 +9,25 @@
 #include <Eigen/Geometry>
 
 #include "ao/ssao.h"
+#include "ao/ssao_kernels.h"
 #include "support/geometry_reference.h"
 
 namespace aoscan {
 namespace {
 
-// Constants of the contract of compute_ssao() (ssao.cpp uses the same values).
-constexpr float kHalfPiF = 1.57079632679490f;
-/// Largest disk radius in pixels.
-constexpr float kMaxRadiusPx = 160.0f;
-/// Alchemy: epsilon of the 1 / (d^2 + eps r_s^2) term, relative to r_s^2.
-constexpr float kAlchemyEpsilon = 0.01f;
-/// Order in which the pixels of a 2x2 block are tried at stride 2 (rotating with the frame).
-constexpr int kBlockOrder[4][2] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
+using detail::area_factor;
+using detail::kAlchemyEpsilon;
+using detail::kBlockOrder;
+using detail::kHalfPiF;
+using detail::kMaxRadiusPx;
+using detail::pattern_class;
+using detail::PixelAo;
+using detail::smoothstep01;
 
-float smoothstep01(float d, float t_max) {
-  const float u = std::min(std::max(d / t_max, 0.0f), 1.0f);
-  return u * u * (3.0f - 2.0f * u);
-}
-
-int pattern_class(int x, int y) {
-  return (x & 3) + kSsaoPatternTile * (y & 3);
-}
 
 /// Nearest pixel of an offset in units of the disk radius.
 int offset_px(int centre, float offset, float radius_px) {
   return centre + static_cast<int>(std::floor(offset * radius_px + 0.5f));
-}
-
-/// Alchemy's area factor of a sample at camera-frame vertex q with raycast normal n_q:
-/// 1 / max(cos theta_q, min_cos), cos theta_q = n_q . (-q / |q|).
-float area_factor(const Eigen::Vector3f& q, const Eigen::Vector3f& n_q, float min_cos) {
-  return 1.0f / std::max(min_cos, -n_q.dot(q) / q.norm());
 }
 
 /// Everything a per-pixel evaluation needs, fixed for the frame.
@@ -49,12 +36,6 @@ struct Setup {
   const SsaoPattern* pattern;
   float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
   float area_min_cos;
-};
-
-/// One pixel's SSAO and the share of its samples that were counted.
-struct PixelAo {
-  float ao;
-  float coverage;
 };
 
 /// The samples of pixel (x, y): fetch() gives the vertex under a pattern offset, or false when
