@@ -18,10 +18,12 @@ namespace aoscan {
 namespace {
 
 using detail::area_factor;
+using detail::FrameSetup;
 using detail::kAlchemyEpsilon;
 using detail::kBlockOrder;
 using detail::kHalfPiF;
 using detail::kMaxRadiusPx;
+using detail::make_setup;
 using detail::pattern_class;
 using detail::PixelAo;
 using detail::smoothstep01;
@@ -48,14 +50,6 @@ inline int offset_px_fast(int centre, float offset, float radius_px) {
   const int t = static_cast<int>(v);
   return centre + t - (v < static_cast<float>(t) ? 1 : 0);
 }
-
-/// Everything a per-pixel evaluation needs, fixed for the frame.
-struct FrameSetup {
-  const PointMaps* maps;
-  const SsaoPattern* pattern;
-  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
-  float area_min_cos;
-};
 
 /// The weight of an evaluated pixel: Eq. 10-11 times the coverage weight.
 float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
@@ -293,20 +287,6 @@ PixelFn fast_kernel(AoEstimator e) {
       break;
   }
   return &fast_horizon_ao;
-}
-
-FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern, const AoConfig& config) {
-  return FrameSetup{&maps,
-                    &pattern,
-                    static_cast<float>(maps.intrinsics.fx),
-                    static_cast<float>(maps.intrinsics.fy),
-                    static_cast<float>(config.radius_m),
-                    static_cast<float>(config.t_max_m),
-                    static_cast<float>(config.d_min_m),
-                    static_cast<float>(config.d_max_m),
-                    static_cast<float>(config.bias),
-                    static_cast<float>(config.coverage_power),
-                    static_cast<float>(config.area_min_cos)};
 }
 
 }  // namespace

@@ -46,5 +46,29 @@ struct PixelAo {
   float coverage;
 };
 
+/// Everything a per-pixel evaluation needs, fixed for the frame.
+struct FrameSetup {
+  const PointMaps* maps;
+  const SsaoPattern* pattern;
+  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
+  float area_min_cos;
+};
+
+/// The frame's constants for `maps` and `pattern`.
+inline FrameSetup make_setup(const PointMaps& maps, const SsaoPattern& pattern,
+                             const AoConfig& config) {
+  return FrameSetup{&maps,
+                    &pattern,
+                    static_cast<float>(maps.intrinsics.fx),
+                    static_cast<float>(maps.intrinsics.fy),
+                    static_cast<float>(config.radius_m),
+                    static_cast<float>(config.t_max_m),
+                    static_cast<float>(config.d_min_m),
+                    static_cast<float>(config.d_max_m),
+                    static_cast<float>(config.bias),
+                    static_cast<float>(config.coverage_power),
+                    static_cast<float>(config.area_min_cos)};
+}
+
 }  // namespace detail
 }  // namespace aoscan

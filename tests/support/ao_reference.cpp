@@ -16,6 +16,7 @@ namespace aoscan {
 namespace {
 
 using detail::area_factor;
+using Setup = detail::FrameSetup;
 using detail::kAlchemyEpsilon;
 using detail::kBlockOrder;
 using detail::kHalfPiF;
@@ -29,14 +30,6 @@ using detail::smoothstep01;
 int offset_px(int centre, float offset, float radius_px) {
   return centre + static_cast<int>(std::floor(offset * radius_px + 0.5f));
 }
-
-/// Everything a per-pixel evaluation needs, fixed for the frame.
-struct Setup {
-  const PointMaps* maps;
-  const SsaoPattern* pattern;
-  float fx, fy, radius_m, t_max_m, d_min_m, d_max_m, bias, coverage_power;
-  float area_min_cos;
-};
 
 /// The samples of pixel (x, y): fetch() gives the vertex under a pattern offset, or false when
 /// the sample is not counted (outside the image, on the pixel itself, on a pixel without a
@@ -208,17 +201,7 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
                                    static_cast<float>(config.normal_max_distance_m),
                                    smoothed_maps);
   const PointMaps& maps_in = config.normal_radius_px > 0 ? smoothed_maps : maps;
-  const Setup setup{&maps_in,
-                    &pattern,
-                    static_cast<float>(maps_in.intrinsics.fx),
-                    static_cast<float>(maps_in.intrinsics.fy),
-                    static_cast<float>(config.radius_m),
-                    static_cast<float>(config.t_max_m),
-                    static_cast<float>(config.d_min_m),
-                    static_cast<float>(config.d_max_m),
-                    static_cast<float>(config.bias),
-                    static_cast<float>(config.coverage_power),
-                    static_cast<float>(config.area_min_cos)};
+  const Setup setup = detail::make_setup(maps_in, pattern, config);
   auto valid = [&](int x, int y) {
     return maps_in.vertices.contains(x, y) &&
            ssao_pixel_valid(maps_in.vertices(x, y), maps_in.normals(x, y));

@@ -91,12 +91,8 @@ std::vector<int> allocate_band(TsdfVolume& volume, const Image<float>& depth_m,
       ++stats.rays;
       const float rx = (static_cast<float>(x) - cx) * fx_inv;
       const Eigen::Vector3f dir = row_dir + rx * x_dir;
-      const float z0 = std::max(d - trunc, 0.5f * d);
-      const float z1 = d + trunc;
-      const Eigen::Vector3f a = dir * z0 + origin;
-      const Eigen::Vector3f b = dir * z1 + origin;
-      constexpr float kLimit = static_cast<float>(TsdfVolume::kMaxBlockCoord);
-      if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
+      Eigen::Vector3f a, b;
+      if (!detail::band_segment(dir, origin, d, trunc, a, b)) continue;
       traverse_cells(a, b, floor_cell(a), floor_cell(b), add);
     }
   }

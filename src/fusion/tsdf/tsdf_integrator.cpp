@@ -177,12 +177,8 @@ int band_keys(const Image<float>& depth_m, int y_begin, int y_end, const Eigen::
       ++rays;
       const float rx = (static_cast<float>(x) - cx) * fx_inv;
       const Eigen::Vector3f dir = rays_of_row.row_dir + rx * x_dir;
-      const float z0 = std::max(d - trunc, 0.5f * d);
-      const float z1 = d + trunc;
-      const Eigen::Vector3f a = dir * z0 + origin;
-      const Eigen::Vector3f b = dir * z1 + origin;
-      constexpr float kLimit = static_cast<float>(TsdfVolume::kMaxBlockCoord);
-      if (!(a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit)) continue;
+      Eigen::Vector3f a, b;
+      if (!detail::band_segment(dir, origin, d, trunc, a, b)) continue;
       segment(a, b, floor_cell(a), floor_cell(b));
     }
   }

@@ -3,6 +3,8 @@
 /// AVX2 kernels (tsdf_integrator_avx2.cpp) share. Not for use outside src/fusion/tsdf/.
 #pragma once
 
+#include <algorithm>
+
 #include <Eigen/Core>
 
 #include "core/image.h"
@@ -60,6 +62,19 @@ void update_block_avx2(const BlockProjection& b, Voxel* voxels);
 /// are inside the packable block range in the high byte. Only on a CPU with AVX2.
 int band_segments_avx2(const float* depth, int x0, const BandRays& r, BandSegments8& out);
 #endif
+
+/// The truncation band of a pixel's ray with depth d, in voxel units: from max(d - trunc, d / 2)
+/// to d + trunc along `dir` (voxels per metre of depth) from `origin`. False when the band leaves
+/// the range of block coordinates.
+inline bool band_segment(const Eigen::Vector3f& dir, const Eigen::Vector3f& origin, float d,
+                         float trunc, Eigen::Vector3f& a, Eigen::Vector3f& b) {
+  const float z0 = std::max(d - trunc, 0.5f * d);
+  const float z1 = d + trunc;
+  a = dir * z0 + origin;
+  b = dir * z1 + origin;
+  constexpr float kLimit = static_cast<float>(TsdfVolume::kMaxBlockCoord);
+  return a.cwiseAbs().maxCoeff() < kLimit && b.cwiseAbs().maxCoeff() < kLimit;
+}
 
 /// The integration's input check, shared with the plain reference of the tests: throws
 /// usage_error when the depth's size differs from the intrinsics; false (nothing to do) when the
