@@ -10,6 +10,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/percentile.h"
+
 namespace aoscan {
 namespace {
 
@@ -124,7 +126,7 @@ BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<flo
     return stats;
   }
   // The 0.95 percentile by nearest rank: the value with 95 % of the values at or below it.
-  const std::size_t rank = static_cast<std::size_t>(std::ceil(0.95 * values.size())) - 1;
+  const std::size_t rank = nearest_rank_index(values.size(), 0.95);
   std::nth_element(values.begin(), values.begin() + rank, values.end());
   stats.threshold = values[rank];
   Image<std::uint8_t> seeds(w, h, 0);
