@@ -103,8 +103,7 @@ void load_ptx(const std::string& path, std::vector<ScanAo>& scans,
 /// Every `every`-th frame of a recording folder, posed by `poses_path` or the folder's own
 /// trajectory.
 void load_recording(const std::string& folder, const ScansOptions& options,
-                    std::vector<ScanAo>& scans, std::vector<ScanSummary>& summaries,
-                    long long& without_pose) {
+                    std::vector<ScanAo>& scans, ScansResult& result) {
   std::string poses_path = options.poses;
   if (poses_path.empty()) {
     for (const char* name : {"trajectory.txt", "groundtruth.txt"})
@@ -124,12 +123,16 @@ void load_recording(const std::string& folder, const ScansOptions& options,
   for (long long index = 0;; ++index) {
     const Status status = source->read(frame);
     if (status.code() == Status::Code::kEndOfStream) break;
-    if (status.code() == Status::Code::kCorruptFrame) continue;  // counted by the source's log
+    if (status.code() == Status::Code::kCorruptFrame) {
+      spdlog::warn("skipping corrupt frame: {}", status.message());
+      ++result.frames_corrupt;
+      continue;
+    }
     if (!status.is_ok()) throw input_error(status.message());
     if (index % options.every != 0) continue;
     const std::optional<Pose> pose = associate(poses, frame.timestamp_s, kPoseMatchS);
     if (!pose) {
-      ++without_pose;
+      ++result.frames_without_pose;
       continue;
     }
     ScanAo scan;
@@ -139,7 +142,7 @@ void load_recording(const std::string& folder, const ScansOptions& options,
     ScanSummary summary;
     summary.source = frame.origin;
     scans.push_back(std::move(scan));
-    summaries.push_back(summary);
+    result.scans.push_back(summary);
   }
 }
 
@@ -175,6 +178,7 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
   j["neighbourhood"] = options.neighbourhood;
   j["quality"] = options.ssao_only ? "ssao" : "mvao";
   j["frames_without_pose"] = r.frames_without_pose;
+  j["frames_corrupt"] = r.frames_corrupt;
   j["pairs_tested"] = r.pairs_tested;
   j["pairs_skipped"] = r.pairs_skipped;
   j["points_shared"] = r.points_shared;
@@ -216,7 +220,7 @@ ScansResult run_scans(const ScansOptions& options) {
     } else if (extension(input) == ".ptx") {
       load_ptx(input, scans, result.scans);
     } else if (fs::is_directory(input)) {
-      load_recording(input, options, scans, result.scans, result.frames_without_pose);
+      load_recording(input, options, scans, result);
     } else if (!fs::exists(input)) {
       throw input_error(input + ": no such file or folder");
     } else {

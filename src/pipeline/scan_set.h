@@ -43,6 +43,7 @@ struct ScansResult {
   std::vector<ScanSummary> scans;
   long long points = 0;
   long long frames_without_pose = 0;  ///< recording frames skipped for want of a pose
+  long long frames_corrupt = 0;       ///< unreadable recording frames skipped (with a warning)
   long long pairs_tested = 0;
   long long pairs_skipped = 0;
   long long points_shared = 0;

@@ -167,6 +167,13 @@ TEST(ScanSet, EveryKthFrameOfARecordingIsAScanPosedByItsGroundTruth) {
   ASSERT_EQ(r.scans.size(), 3u);  // frames 0, 10, 20
   EXPECT_EQ(r.scans[1].name, "rec-10");
   EXPECT_EQ(r.frames_without_pose, 0);
+  EXPECT_EQ(r.frames_corrupt, 0);
+  // An unreadable frame is skipped and counted: frame 10 is gone, frame 20 is still a scan.
+  write_text(dir.file("rec/depth/000010.png"), "not a png");
+  const ScansResult skipped = run_scans(options);
+  EXPECT_EQ(skipped.frames_corrupt, 1);
+  ASSERT_EQ(skipped.scans.size(), 2u);
+  EXPECT_EQ(skipped.scans[1].name, "rec-20");
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("out/scans/rec-20.ply")));
   // Without a trajectory the frames cannot be posed.
   std::filesystem::remove(dir.file("rec/groundtruth.txt"));
