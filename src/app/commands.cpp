@@ -25,6 +25,10 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
   options.show_progress = !args.no_progress;
   options.live_view = !args.headless;  // falls back to headless with one warning
 
+  if (args.live && !is_camera_spec(args.source))
+    throw usage_error("--device " + args.source +
+                      ": unknown camera (openni2[:URI], freenect[:INDEX], v4l2:/dev/videoN or "
+                      "auto; aoscan devices lists them)");
   std::unique_ptr<Source> source = open_source(args.source);
   if (args.live && !source->live())
     throw usage_error(args.source + ": scan needs a live camera; use replay for recordings");

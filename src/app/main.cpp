@@ -1,6 +1,15 @@
 /// @file main.cpp
 /// @brief aoscan command line: replay, scan, record, devices, config, scans.
+#include <pthread.h>
+#include <signal.h>
+
+#include <atomic>
+#include <cerrno>
 #include <csignal>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <thread>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -11,25 +20,106 @@
 #include "app/commands.h"
 #include "core/log.h"
 #include "core/status.h"
+#include "pipeline/output_folder.h"
 
 namespace aoscan {
 namespace {
 
-std::atomic<bool> g_stop_requested{false};
+/// The signals that stop a run: Ctrl-C, `kill`, and a closed terminal.
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
-/// First SIGINT/SIGTERM asks for a clean stop; a second one kills the process the usual way.
-extern "C" void on_stop_signal(int signo) {
-  g_stop_requested.store(true);
-  std::signal(signo, SIG_DFL);
+sigset_t stop_signal_set() {
+  sigset_t set;
+  sigemptyset(&set);
+  for (int signo : kStopSignals) sigaddset(&set, signo);
+  return set;
 }
 
-void install_stop_handlers() {
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
+/// Takes the stop signals on a thread of its own (they are blocked in every other thread, so
+/// none is ever interrupted by one): the first asks the run to stop, finish the frames in flight
+/// and write the outputs; a second, during the export, says how far it is and still lets it
+/// finish; a third abandons the outputs, says which are not written, and ends the process.
+class StopSignals {
+ public:
+  StopSignals(std::atomic<bool>& stop_requested, const ExportProgress& progress)
+      : stop_requested_(stop_requested), progress_(progress) {
+    const sigset_t set = stop_signal_set();
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);  // before any other thread starts: all inherit it
+    thread_ = std::thread([this, set] { take_signals(set); });
+  }
+  ~StopSignals() {
+    done_.store(true);
+    thread_.join();
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  void take_signals(const sigset_t& set) {
+    int count = 0;
+    while (!done_.load()) {
+      const timespec poll_interval{0, 100'000'000};
+      siginfo_t info{};
+      const int signo = sigtimedwait(&set, &info, &poll_interval);
+      if (signo < 0) continue;
+      ++count;
+      const char* name = sigabbrev_np(signo);
+      if (count == 1) {
+        stop_requested_.store(true);
+        std::fprintf(stderr,
+                     "aoscan: SIG%s: stopping; the frames in flight are finished and the outputs "
+                     "written (a third signal abandons them)\n",
+                     name);
+      } else if (count == 2) {
+        const std::string where = progress_.describe();
+        std::fprintf(stderr, "aoscan: SIG%s: finishing the outputs%s; a third signal abandons them\n",
+                     name, where.empty() ? " after the frames in flight" : (" (" + where + ")").c_str());
+      } else {
+        abandon(name);
+      }
+    }
+  }
+
+  /// Says what stays unwritten and ends the process at once.
+  [[noreturn]] void abandon(const char* name) {
+    std::string missing;
+    if (!progress_.exporting()) {
+      missing = "no output was written";
+    } else {
+      for (const std::string& file : progress_.pending())
+        missing += (missing.empty() ? "not written: " : ", ") + file;
+      if (missing.empty()) missing = "every output was written";
+    }
+    std::fprintf(stderr, "aoscan: error: SIG%s: outputs abandoned: %s\n", name, missing.c_str());
+    std::_Exit(static_cast<int>(ExitCode::kFailure));
+  }
+
+  std::atomic<bool>& stop_requested_;
+  const ExportProgress& progress_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
+/// Whole numbers from `lo` to `hi`: a message that names the range in plain numbers, also for a
+/// number too large for any integer type (CLI11's own checks print the range of a double).
+CLI::Validator whole_number(std::uint64_t lo, std::uint64_t hi) {
+  const std::string range = "a whole number from " + std::to_string(lo) + " to " + std::to_string(hi);
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos)
+          return "'" + text + "' is not " + range;
+        errno = 0;
+        const unsigned long long v = std::strtoull(text.c_str(), nullptr, 10);
+        if (errno == ERANGE || v < lo || v > hi) return text + " is out of range: " + range;
+        return "";
+      },
+      "INT " + std::to_string(lo) + ".." + std::to_string(hi));
 }
+
+/// Frames of one run: at most this many (about 19 years at 30 frames a second).
+constexpr std::uint64_t kMaxFrames = 1ULL << 34;
+/// Worker threads: more than any machine aoscan runs on has cores.
+constexpr std::uint64_t kMaxThreads = 1024;
 
 /// Options shared by replay and scan.
 void add_run_options(CLI::App& cmd, RunArgs& args) {
@@ -40,9 +130,9 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
   cmd.add_option("--set", args.sets, "override one configuration key: KEY=VALUE (repeatable)")
       ->allow_extra_args(false);
   cmd.add_option("--frames", args.run.chain.max_frames, "process at most N frames")
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1, kMaxFrames));
   cmd.add_option("--threads", args.run.threads, "worker threads (default: all cores)")
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1, kMaxThreads));
   cmd.add_flag("--headless", args.headless,
                "never open a window or touch a display (default: the live view, when a display "
                "is available)");
@@ -61,7 +151,7 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
                      "composited on the CPU, so also with --headless");
   cmd.add_option("--snapshot-every", args.run.snapshot_every,
                  "with --snapshot: every N-th fused frame, and the last one")
-      ->check(CLI::PositiveNumber)
+      ->check(whole_number(1, kMaxFrames))
       ->capture_default_str()
       ->needs(snapshot);
 }
@@ -76,7 +166,7 @@ void add_scans_options(CLI::App& cmd, ScansArgs& args) {
   cmd.add_option("--out", o.out_dir, "folder for the outputs (created if missing)")
       ->capture_default_str();
   cmd.add_option("--every", o.every, "recording folders: every K-th frame is a scan")
-      ->check(CLI::PositiveNumber)
+      ->check(whole_number(1, kMaxFrames))
       ->capture_default_str();
   cmd.add_option("--poses", o.poses,
                  "TUM trajectory posing the recording folders' frames (default: the folder's "
@@ -92,7 +182,7 @@ void add_scans_options(CLI::App& cmd, ScansArgs& args) {
   cmd.add_option("--set", args.sets, "override one configuration key: KEY=VALUE (repeatable)")
       ->allow_extra_args(false);
   cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1, kMaxThreads));
   // In the contract, not implemented yet: refused with a clear message.
   for (const char* name : {"--memory-limit", "--resume", "--mesh"}) {
     CLI::Option* option = std::string(name) == "--memory-limit"
@@ -134,7 +224,7 @@ int run(int argc, char** argv) {
   record->add_option("SOURCE", record_args.source, "recording folder, synth: scene or camera")->required();
   record->add_option("DIR", record_args.dir, "recording folder to create")->required();
   record->add_option("--frames", record_args.max_frames, "record at most N frames")
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1, kMaxFrames));
 
   CLI::App* devices = app.add_subcommand("devices", "list the depth cameras this machine can see");
 
@@ -149,6 +239,22 @@ int run(int argc, char** argv) {
       "scans", "offline multi-view AO of registered scans (Sabbadin et al. 2016 Sec. 5)");
   add_scans_options(*scans, scans_args);
 
+  // An unknown word where the subcommand belongs: say so (CLI11 would say that one is missing).
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--log-level") {
+      ++i;
+      continue;
+    }
+    if (arg.empty() || arg[0] == '-') continue;
+    const std::vector<CLI::App*> named =
+        app.get_subcommands([&arg](CLI::App* sub) { return sub->get_name() == arg; });
+    if (named.empty())
+      return report(ExitCode::kUsage, "unknown subcommand '" + arg +
+                                           "' (replay, scan, record, devices, config or scans; "
+                                           "see aoscan --help)");
+    break;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -161,17 +267,24 @@ int run(int argc, char** argv) {
     return report(ExitCode::kUsage, e.what() + std::string(" (see aoscan --help)"));
   }
 
+  // A write past a file size limit fails with EFBIG (an error naming the file) instead of
+  // killing the process; a closed stderr pipe is a failed write, not a death.
+  std::signal(SIGXFSZ, SIG_IGN);
+  std::signal(SIGPIPE, SIG_IGN);
   try {
     configure_logging(log_level);
+    std::atomic<bool> stop_requested{false};
+    ExportProgress export_progress;
     if (*replay || *scan) {
-      install_stop_handlers();
+      const StopSignals signals(stop_requested, export_progress);
       RunArgs& args = *replay ? replay_args : scan_args;
       args.live = static_cast<bool>(*scan);
-      return static_cast<int>(run_replay(args, g_stop_requested));
+      args.run.export_progress = &export_progress;
+      return static_cast<int>(run_replay(args, stop_requested));
     }
     if (*record) {
-      install_stop_handlers();
-      return static_cast<int>(run_record(record_args, g_stop_requested));
+      const StopSignals signals(stop_requested, export_progress);
+      return static_cast<int>(run_record(record_args, stop_requested));
     }
     if (*devices) return static_cast<int>(run_devices());
     if (*config) return static_cast<int>(run_print_config(config_args));

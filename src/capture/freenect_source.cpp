@@ -134,7 +134,8 @@ class FreenectSource : public LiveMillimetreSource {
     delivered_ = false;
     const auto deadline = Clock::now() + kFrameTimeout;
     while (!delivered_) {
-      timeval timeout{0, 100000};
+      if (stop_requested()) break;
+      timeval timeout{0, std::chrono::microseconds(kStopPollInterval).count()};
       const int rc = freenect_process_events_timeout(context_->get(), &timeout);
       if (rc < 0) {
         lost_ = name_ + ": the Kinect stopped delivering frames (unplugged?): libfreenect error " +
@@ -147,7 +148,7 @@ class FreenectSource : public LiveMillimetreSource {
       }
     }
     target_ = nullptr;
-    if (!delivered_) return Status::device_lost(lost_);
+    if (!delivered_) return lost_.empty() ? Status::end_of_stream() : Status::device_lost(lost_);
     stamp(frame, static_cast<double>(ticks_) / kKinectClockHz, sequence_++);
     return Status::ok();
   }

@@ -2,6 +2,8 @@
 /// @brief OpenNI2Source for devices and .oni playback (the only file including OpenNI.h).
 #include "capture/openni2_source.h"
 
+#include <chrono>
+
 #include <OpenNI.h>
 
 #include <cmath>
@@ -79,8 +81,14 @@ class OpenNI2Source : public Source {
       return Status::end_of_stream();
     openni::VideoStream* streams[] = {&stream_};
     int ready = -1;
-    const openni::Status wait =
-        openni::OpenNI::waitForAnyStream(streams, 1, &ready, kFrameTimeoutMs);
+    // Short waits up to the frame timeout, so that a stop request is seen at once.
+    openni::Status wait = openni::STATUS_TIME_OUT;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kFrameTimeoutMs);
+    while (wait == openni::STATUS_TIME_OUT && std::chrono::steady_clock::now() < deadline) {
+      if (stop_requested()) return Status::end_of_stream();
+      wait = openni::OpenNI::waitForAnyStream(
+          streams, 1, &ready, static_cast<int>(kStopPollInterval.count()));
+    }
     if (wait != openni::STATUS_OK) {
       if (file_)
         return Status::bad_input(name_ + " (frame " + std::to_string(frames_read_) +
@@ -128,6 +136,7 @@ class OpenNI2Source : public Source {
   }
 
   std::string name() const override { return name_; }
+  std::string calibration_origin() const override { return "OpenNI2 (the device's field of view)"; }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
   double depth_scale() const override { return depth_scale_; }
   std::optional<std::size_t> size() const override {

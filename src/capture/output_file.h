@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/status.h"
+#include "io/atomic_write.h"
 
 namespace aoscan {
 
@@ -44,8 +45,7 @@ inline std::string prepare_output_folder(std::string dir, const std::string& mar
   if (std::filesystem::exists(dir + "/" + marker, ec))
     throw usage_error(dir + ": already holds " + what + " (" + marker + "); choose another folder");
   const std::string create = subdir.empty() ? dir : dir + "/" + subdir;
-  std::filesystem::create_directories(create, ec);
-  if (ec) throw Error(ExitCode::kFailure, create + ": cannot create folder: " + ec.message());
+  require_writable_folder(create, create);
   return dir;
 }
 

@@ -23,7 +23,7 @@ struct ReadPolicy {
   const char* skip_warning = nullptr;
 };
 
-/// Handles `status`: ok gives kFrame; a corrupt frame gives kSkip and is counted in `corrupt`
+/// Handles `status`: ok gives kFrame; a corrupt frame is counted in `corrupt` and gives kSkip
 /// (strict: kStop with `stopped_by` = bad_input); end of stream gives kStop and leaves
 /// `stopped_by` alone; any other status gives kStop with `stopped_by` = status. `Counter` is an
 /// integer or an atomic one.
@@ -36,11 +36,11 @@ ReadStep handle_read_status(const Status& status, const ReadPolicy& policy, Coun
     case Status::Code::kEndOfStream:
       return ReadStep::kStop;
     case Status::Code::kCorruptFrame:
+      ++corrupt;
       if (policy.strict) {
         stopped_by = Status::bad_input(status.message());
         return ReadStep::kStop;
       }
-      ++corrupt;
       if (policy.skip_warning) spdlog::warn("{}{}", policy.skip_warning, status.message());
       return ReadStep::kSkip;
     default:

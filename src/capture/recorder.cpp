@@ -60,6 +60,7 @@ RecordStats record_source(Source& source, const std::string& dir,
     if (ground_truth) ground_truth->close();
   };
 
+  source.watch_stop(stop_requested);
   while (!max_frames || stats.frames_written < *max_frames) {
     if (stop_requested && stop_requested->load()) break;
     const ReadStep step = handle_read_status(source.read(frame), kReadPolicy, stats.frames_corrupt,

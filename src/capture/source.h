@@ -2,6 +2,8 @@
 /// @brief The one interface every depth source implements: recordings, synthetic scenes, cameras.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -32,13 +34,33 @@ class Source {
   virtual const Intrinsics& intrinsics() const = 0;
   /// Raw units per metre of the frames.
   virtual double depth_scale() const = 0;
+  /// Where intrinsics() and depth_scale() come from (a file, a driver, a default), for the log
+  /// and stats.json.
+  virtual std::string calibration_origin() const { return "the source"; }
+  /// True when the calibration is a generic default, not this camera's: the run warns.
+  virtual bool calibration_is_default() const { return false; }
   /// Number of frames when known in advance (recordings, synthetic scenes).
   virtual std::optional<std::size_t> size() const { return std::nullopt; }
   /// True for live cameras: they never wait for the consumer.
   virtual bool live() const { return false; }
   /// Exact scene geometry in the world frame of the ground-truth poses, when the source knows it.
   virtual const TriangleMesh* scene_mesh() const { return nullptr; }
+
+  /// A flag whose setting ends the stream (may be null): a read waiting for a camera's next
+  /// frame returns end of stream within kStopPollInterval of it instead of waiting out its
+  /// timeout. Set by the reading loop before its first read; the flag must outlive the reads.
+  void watch_stop(const std::atomic<bool>* stop) { stop_ = stop; }
+
+ protected:
+  bool stop_requested() const { return stop_ != nullptr && stop_->load(); }
+
+ private:
+  const std::atomic<bool>* stop_ = nullptr;
 };
+
+/// How often every wait of the program (replay pacing, a camera's frame wait) looks at the stop
+/// flag: a stop request is seen within this time.
+inline constexpr std::chrono::milliseconds kStopPollInterval{50};
 
 /// Raw units per metre of the live cameras that deliver millimetres (libfreenect in mm mode, V4L2
 /// Z16).
@@ -51,6 +73,7 @@ class LiveMillimetreSource : public Source {
   std::string name() const override { return name_; }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
   double depth_scale() const override { return kMillimetreDepthScale; }
+  std::string calibration_origin() const override { return "the camera's driver"; }
   bool live() const override { return true; }
 
  protected:
@@ -77,5 +100,9 @@ class LiveMillimetreSource : public Source {
 /// parameter, input_error for a missing or broken recording (also `.oni`), device_error for
 /// cameras (`openni2[:URI]`, `freenect[:INDEX]`, `v4l2:/dev/videoN`, `auto`).
 std::unique_ptr<Source> open_source(const std::string& spec);
+
+/// True when `spec` names a live camera (`openni2[:URI]`, `freenect[:INDEX]`, `v4l2:...`,
+/// `auto`), whether or not it is plugged in.
+bool is_camera_spec(const std::string& spec);
 
 }  // namespace aoscan

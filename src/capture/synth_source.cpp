@@ -34,6 +34,7 @@ class SynthSource final : public Source {
   }
 
   std::string name() const override { return spec_; }
+  std::string calibration_origin() const override { return "the synthetic camera"; }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
   double depth_scale() const override { return kSynthDepthScale; }
   std::optional<std::size_t> size() const override {

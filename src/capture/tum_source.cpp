@@ -35,6 +35,9 @@ class TumSource final : public Source {
  public:
   explicit TumSource(const std::string& folder) : folder_(trimmed(folder)) {
     std::error_code ec;
+    if (!folder_.empty() && fs::exists(folder_, ec) && !fs::is_directory(folder_, ec))
+      throw input_error(folder_ + ": is a file, not a recording folder (a TUM-layout folder "
+                        "holds depth.txt and the depth PNGs it lists)");
     if (folder_.empty() || !fs::is_directory(folder_, ec))
       throw input_error(folder_ + ": no such folder");
 
@@ -54,6 +57,8 @@ class TumSource final : public Source {
     depth_scale_ = info.depth_scale;
     size_known_ = info.size_given;
     size_origin_ = info.size_given ? "camera.json" : "first frame";
+    calibration_origin_ = info.origin;
+    calibration_is_default_ = info.is_default;
 
     const std::string gt = folder_ + "/groundtruth.txt";
     if (is_file(gt)) {
@@ -103,6 +108,8 @@ class TumSource final : public Source {
   std::string name() const override { return folder_; }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
   double depth_scale() const override { return depth_scale_; }
+  std::string calibration_origin() const override { return calibration_origin_; }
+  bool calibration_is_default() const override { return calibration_is_default_; }
   std::optional<std::size_t> size() const override { return entries_.size(); }
 
  private:
@@ -130,6 +137,8 @@ class TumSource final : public Source {
   double depth_scale_ = 0.0;
   bool size_known_ = false;
   std::string size_origin_;
+  std::string calibration_origin_;
+  bool calibration_is_default_ = false;
   std::vector<StampedPose> ground_truth_;  ///< sorted by timestamp
   std::size_t next_ = 0;
   Image<std::uint16_t> probe_image_;

@@ -170,10 +170,15 @@ class V4l2Source : public LiveMillimetreSource {
     if (!lost_.empty()) return Status::device_lost(lost_);
     const int fd = fd_->get();
     pollfd pfd{fd, POLLIN, 0};
-    int rc;
-    do {
-      rc = ::poll(&pfd, 1, kFrameTimeoutMs);
-    } while (rc < 0 && errno == EINTR);
+    // Short polls up to the frame timeout, so that a stop request is seen at once.
+    int rc = 0;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kFrameTimeoutMs);
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (stop_requested()) return Status::end_of_stream();
+      rc = ::poll(&pfd, 1, static_cast<int>(kStopPollInterval.count()));
+      if (rc < 0 && errno == EINTR) rc = 0;
+      if (rc != 0) break;
+    }
     if (rc == 0) return lose(name_ + ": no frame for 2 s (unplugged?)");
     if (rc < 0) return lose(name_ + ": poll failed: " + errno_text());
     if (pfd.revents & (POLLERR | POLLHUP | POLLNVAL))

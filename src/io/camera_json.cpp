@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/status.h"
+#include "io/atomic_write.h"
 
 namespace aoscan {
 namespace {
@@ -151,6 +152,7 @@ CameraInfo read_camera_json(const std::string& path, int default_width, int defa
     info.intrinsics.width = default_width;
     info.intrinsics.height = default_height;
   }
+  info.origin = path;
   return info;
 }
 
@@ -163,10 +165,12 @@ void write_camera_json(const std::string& path, const Intrinsics& intrinsics, do
       ", \"fx\": " + shortest(intrinsics.fx) + ", \"fy\": " + shortest(intrinsics.fy) +
       ", \"cx\": " + shortest(intrinsics.cx) + ", \"cy\": " + shortest(intrinsics.cy) +
       ", \"depth_scale\": " + shortest(depth_scale) + " }\n";
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.close();
-  if (!out) throw Error(ExitCode::kFailure, path + ": cannot write camera file");
+  write_atomically(path, [&text](const std::string& partial) {
+    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw Error(ExitCode::kFailure, partial + ": cannot write camera file");
+  });
 }
 
 CameraInfo default_camera_for_folder(const std::string& folder) {
@@ -194,9 +198,13 @@ CameraInfo default_camera_for_folder(const std::string& folder) {
   CameraInfo info;
   info.depth_scale = 5000.0;
   info.intrinsics = Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
+  info.origin = "the default calibration (no camera.json)";
+  info.is_default = true;
   for (const Calibration& c : kCalibrations) {
     if (contains(name, c.tag)) {
       info.intrinsics = Intrinsics{640, 480, c.fx, c.fy, c.cx, c.cy};
+      info.origin = std::string("the TUM ") + c.tag + " calibration (folder name, no camera.json)";
+      info.is_default = false;
       break;
     }
   }

@@ -14,6 +14,11 @@ struct CameraInfo {
   Intrinsics intrinsics;     ///< pinhole intrinsics in pixels, with the image size
   double depth_scale = 0.0;  ///< raw depth units per metre
   bool size_given = false;   ///< true when the file gave `width` and `height`
+  /// Where the calibration came from, for the log and stats.json: "camera.json", "the TUM
+  /// freiburg1 calibration (folder name)", "the default calibration (no camera.json)".
+  std::string origin;
+  /// True for the generic default: nothing about this camera is known.
+  bool is_default = false;
 };
 
 /// Reads `{ "fx", "fy", "cx", "cy", "depth_scale" [, "width", "height"] }` (pixels; raw units per

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/status.h"
+#include "io/atomic_write.h"
 #include "io/tokens.h"
 
 namespace aoscan {
@@ -175,6 +176,42 @@ std::uint64_t min_instance_size(const Element& e, bool ascii) {
   return std::max<std::uint64_t>(n, 1);
 }
 
+/// The body of write_ply(): the header and the binary rows, into `path`.
+void write_ply_data(const std::string& path, const TriangleMesh& mesh, std::size_t n) {
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) throw_write_failed(path);
+  const std::string header = ply_header(n, mesh.faces.size());
+  bool ok = std::fwrite(header.data(), 1, header.size(), file) == header.size();
+
+  constexpr std::size_t kChunk = 1 << 20;
+  std::vector<unsigned char> buffer;
+  buffer.reserve(kChunk + 64);
+  auto flush = [&] {
+    if (ok && !buffer.empty())
+      ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
+    buffer.clear();
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& v = mesh.vertices[i];
+    const Eigen::Vector3f normal = mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i];
+    const float quality = mesh.quality.empty() ? 1.0f : mesh.quality[i];
+    for (int k = 0; k < 3; ++k) put_f32(buffer, v[k]);
+    for (int k = 0; k < 3; ++k) put_f32(buffer, normal[k]);
+    put_f32(buffer, quality);
+    const unsigned char g = grey(quality);
+    buffer.insert(buffer.end(), {g, g, g});
+    if (buffer.size() >= kChunk) flush();
+  }
+  for (const Eigen::Vector3i& face : mesh.faces) {
+    buffer.push_back(3);
+    for (int k = 0; k < 3; ++k) put_u32(buffer, static_cast<std::uint32_t>(face[k]));
+    if (buffer.size() >= kChunk) flush();
+  }
+  flush();
+  ok = std::ferror(file) == 0 && ok;
+  if (std::fclose(file) != 0 || !ok) throw_write_failed(path);
+}
+
 }  // namespace
 
 std::string ply_header(std::size_t vertex_count, std::size_t face_count) {
@@ -216,41 +253,13 @@ void write_ply(const std::string& path, const TriangleMesh& mesh) {
         throw usage_error(path + ": face " + std::to_string(f) + " has vertex index " +
                           std::to_string(mesh.faces[f][k]) + " out of range");
 
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw_write_failed(path);
-  const std::string header = ply_header(n, mesh.faces.size());
-  bool ok = std::fwrite(header.data(), 1, header.size(), file) == header.size();
-
-  constexpr std::size_t kChunk = 1 << 20;
-  std::vector<unsigned char> buffer;
-  buffer.reserve(kChunk + 64);
-  auto flush = [&] {
-    if (ok && !buffer.empty())
-      ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
-    buffer.clear();
-  };
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3f& v = mesh.vertices[i];
-    const Eigen::Vector3f normal = mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i];
-    const float quality = mesh.quality.empty() ? 1.0f : mesh.quality[i];
-    for (int k = 0; k < 3; ++k) put_f32(buffer, v[k]);
-    for (int k = 0; k < 3; ++k) put_f32(buffer, normal[k]);
-    put_f32(buffer, quality);
-    const unsigned char g = grey(quality);
-    buffer.insert(buffer.end(), {g, g, g});
-    if (buffer.size() >= kChunk) flush();
-  }
-  for (const Eigen::Vector3i& face : mesh.faces) {
-    buffer.push_back(3);
-    for (int k = 0; k < 3; ++k) put_u32(buffer, static_cast<std::uint32_t>(face[k]));
-    if (buffer.size() >= kChunk) flush();
-  }
-  flush();
-  ok = std::ferror(file) == 0 && ok;
-  if (std::fclose(file) != 0 || !ok) throw_write_failed(path);
+  write_atomically(path, [&mesh, n](const std::string& partial) {
+    write_ply_data(partial, mesh, n);
+  });
 }
 
 namespace {
+
 
 /// The header of a PLY file: its format, its elements, and where the data begin.
 struct PlyHeader {

@@ -14,6 +14,7 @@
 #include <string_view>
 
 #include "core/status.h"
+#include "io/atomic_write.h"
 #include "io/tokens.h"
 
 namespace aoscan {
@@ -94,13 +95,15 @@ std::vector<TumListEntry> read_tum_list(const std::string& path) {
 
 void write_tum_list(const std::string& path, const std::vector<TumListEntry>& entries,
                     const std::string& header) {
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw_write_failed(path);
-  write_header(file, header);
-  for (const TumListEntry& e : entries)
-    std::fprintf(file, "%.6f %s\n", e.timestamp_s, e.path.c_str());
-  const bool failed = std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed) throw_write_failed(path);
+  write_atomically(path, [&](const std::string& partial) {
+    std::FILE* file = std::fopen(partial.c_str(), "wb");
+    if (!file) throw_write_failed(partial);
+    write_header(file, header);
+    for (const TumListEntry& e : entries)
+      std::fprintf(file, "%.6f %s\n", e.timestamp_s, e.path.c_str());
+    const bool failed = std::ferror(file) != 0;
+    if (std::fclose(file) != 0 || failed) throw_write_failed(partial);
+  });
 }
 
 std::vector<StampedPose> read_trajectory(const std::string& path) {
@@ -145,9 +148,11 @@ int format_trajectory_line(char* buffer, std::size_t size, const StampedPose& po
 }
 
 void write_trajectory(const std::string& path, const std::vector<StampedPose>& poses) {
-  TrajectoryWriter writer(path);
-  for (const StampedPose& p : poses) writer.write(p);
-  writer.close();
+  write_atomically(path, [&poses](const std::string& partial) {
+    TrajectoryWriter writer(partial);
+    for (const StampedPose& p : poses) writer.write(p);
+    writer.close();
+  });
 }
 
 TrajectoryWriter::TrajectoryWriter(const std::string& path, const std::string& header)

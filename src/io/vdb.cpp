@@ -16,6 +16,7 @@
 
 #include "core/log.h"
 #include "core/status.h"
+#include "io/atomic_write.h"
 
 namespace aoscan {
 namespace {
@@ -138,14 +139,16 @@ VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume
 
   openvdb::MetaMap file_meta;
   file_meta.insertMeta("creator", openvdb::StringMetadata("aoscan"));
-  try {
-    openvdb::io::File file(path);
-    file.write(openvdb::GridCPtrVec{tsdf, weight}, file_meta);
-    file.close();
-  } catch (const std::exception& e) {
-    throw Error(ExitCode::kFailure, path + ": cannot write: " + one_line(e.what()));
-  }
-  make_uuid_deterministic(path);
+  write_atomically(path, [&](const std::string& partial) {
+    try {
+      openvdb::io::File file(partial);
+      file.write(openvdb::GridCPtrVec{tsdf, weight}, file_meta);
+      file.close();
+    } catch (const std::exception& e) {
+      throw Error(ExitCode::kFailure, partial + ": cannot write: " + one_line(e.what()));
+    }
+    make_uuid_deterministic(partial);
+  });
   std::error_code ec;
   stats.file_bytes = std::filesystem::file_size(path, ec);
   if (ec) throw Error(ExitCode::kFailure, path + ": cannot write: " + ec.message());

@@ -3,11 +3,14 @@
 #include "pipeline/config.h"
 
 #include <cerrno>
+#include <climits>
+#include <cstdio>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <initializer_list>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -28,15 +31,19 @@ bool parse_double(const std::string& text, double& out) {
   return true;
 }
 
-bool parse_int(const std::string& text, int& out) {
-  if (text.empty()) return false;
+/// An integer's parse: a value, not a whole number at all, or a whole number beyond `int`.
+enum class IntParse { kOk, kNotInteger, kTooLarge };
+
+IntParse parse_int(const std::string& text, int& out) {
+  if (text.empty()) return IntParse::kNotInteger;
   errno = 0;
   char* end = nullptr;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (errno != 0 || end != text.c_str() + text.size() || v < -(1L << 31) || v >= (1L << 31))
-    return false;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (end != text.c_str() + text.size()) return IntParse::kNotInteger;
+  if (errno == ERANGE || v < INT_MIN || v > INT_MAX) return IntParse::kTooLarge;
+  if (errno != 0) return IntParse::kNotInteger;
   out = static_cast<int>(v);
-  return true;
+  return IntParse::kOk;
 }
 
 std::string number_text(double v) {
@@ -44,6 +51,23 @@ std::string number_text(double v) {
   s.precision(10);
   s << v;
   return s.str();
+}
+
+/// `v` in plain digits, as a person writes it (0.00001, not 1e-05).
+std::string plain_number(double v) {
+  if (std::abs(v) < 1e15 && v == std::floor(v)) return std::to_string(static_cast<long long>(v));
+  char text[64];
+  std::snprintf(text, sizeof text, "%.10f", v);
+  std::string out = text;
+  while (out.back() == '0') out.pop_back();
+  if (out.back() == '.') out.pop_back();
+  return out;
+}
+
+/// "must be from LO to HI" (or "at least LO" when HI is beyond any sensible value).
+std::string range_text(double lo, double hi) {
+  if (hi >= 1e15) return "must be at least " + plain_number(lo);
+  return "must be from " + plain_number(lo) + " to " + plain_number(hi);
 }
 
 /// Sets the field named `field` of the visited section, if it has one.
@@ -57,17 +81,19 @@ class SetVisitor {
     if (field_ != name) return;
     found = true;
     double v = 0;
-    if (!parse_double(value_, v)) fail("is not a finite number");
-    if (v < lo || v > hi) fail("is out of range [" + number_text(lo) + ", " + number_text(hi) + "]");
+    if (!parse_double(value_, v)) fail("is not a finite number (" + range_text(lo, hi) + ")");
+    if (v < lo || v > hi) fail("is out of range: it " + range_text(lo, hi));
     target = v;
   }
   void integer(const char* name, int& target, const char*, int lo, int hi) {
     if (field_ != name) return;
     found = true;
     int v = 0;
-    if (!parse_int(value_, v)) fail("is not an integer");
-    if (v < lo || v > hi)
-      fail("is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    const IntParse parsed = parse_int(value_, v);
+    if (parsed == IntParse::kNotInteger)
+      fail("is not a whole number (" + range_text(lo, hi) + ")");
+    if (parsed == IntParse::kTooLarge || v < lo || v > hi)
+      fail("is out of range: it " + range_text(lo, hi));
     target = v;
   }
   template <class E>
@@ -152,7 +178,8 @@ void flatten_yaml(const YAML::Node& node, const std::string& prefix,
       flatten_yaml(kv.second, prefix.empty() ? key : prefix + "." + key, out, path);
     }
   } else if (node.IsScalar()) {
-    out[prefix] = node.Scalar();
+    if (!out.emplace(prefix, node.Scalar()).second)
+      throw usage_error(path + ": configuration key " + prefix + " is given twice");
   } else if (node.IsNull()) {
     if (!prefix.empty()) throw usage_error(path + ": configuration key " + prefix + " has no value");
   } else {
@@ -165,10 +192,9 @@ void flatten_json(const nlohmann::json& node, const std::string& prefix,
   if (node.is_object()) {
     for (const auto& [key, value] : node.items())
       flatten_json(value, prefix.empty() ? key : prefix + "." + key, out, path);
-  } else if (node.is_string()) {
-    out[prefix] = node.get<std::string>();
-  } else if (node.is_number() || node.is_boolean()) {
-    out[prefix] = node.dump();
+  } else if (node.is_string() || node.is_number() || node.is_boolean()) {
+    if (!out.emplace(prefix, node.is_string() ? node.get<std::string>() : node.dump()).second)
+      throw usage_error(path + ": configuration key " + prefix + " is given twice");
   } else {
     throw usage_error(path + ": configuration key " + prefix + " must be a number or a string");
   }
@@ -202,11 +228,30 @@ void load_config_file(Config& config, const std::string& path) {
   std::map<std::string, std::string> values;
   if (ends_with(path, ".json")) {
     nlohmann::json doc;
+    // JSON itself lets a later key replace an earlier one silently: find repeats while parsing.
+    // Each open object: its dotted prefix and the keys seen in it.
+    std::vector<std::pair<std::string, std::set<std::string>>> objects;
+    std::string last_key, repeated;
+    const auto watch_keys = [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+      using Event = nlohmann::json::parse_event_t;
+      if (event == Event::object_start)
+        objects.emplace_back(objects.empty() ? "" : objects.back().first + last_key + ".",
+                             std::set<std::string>{});
+      if (event == Event::object_end && !objects.empty()) objects.pop_back();
+      if (event == Event::key && !objects.empty()) {
+        last_key = parsed.get<std::string>();
+        if (repeated.empty() && !objects.back().second.insert(last_key).second)
+          repeated = objects.back().first + last_key;
+      }
+      return true;
+    };
     try {
-      doc = nlohmann::json::parse(buffer.str());
+      doc = nlohmann::json::parse(buffer.str(), watch_keys);
     } catch (const nlohmann::json::exception& e) {
       throw usage_error(path + ": not valid JSON: " + e.what());
     }
+    if (!repeated.empty())
+      throw usage_error(path + ": configuration key " + repeated + " is given twice");
     if (!doc.is_object()) throw usage_error(path + ": configuration must be a JSON object");
     flatten_json(doc, "", values, path);
   } else {
@@ -235,10 +280,13 @@ void validate_config(const Config& c) {
 Config load_config(const std::string& file, const std::vector<std::string>& sets) {
   Config config;
   if (!file.empty()) load_config_file(config, file);
+  std::set<std::string> set_keys;
   for (const std::string& kv : sets) {
     const auto eq = kv.find('=');
     if (eq == std::string::npos || eq == 0)
       throw usage_error("--set " + kv + ": expected KEY=VALUE");
+    if (!set_keys.insert(kv.substr(0, eq)).second)
+      throw usage_error("--set " + kv.substr(0, eq) + " is given twice");
     set_config_value(config, kv.substr(0, eq), kv.substr(eq + 1), "--set");
   }
   validate_config(config);
@@ -251,6 +299,26 @@ std::string dump_config(const Config& config) {
   SectionDump dispatch{out};
   copy.visit_sections(dispatch);
   return out.str();
+}
+
+std::vector<std::string> costly_config_warnings(const Config& c) {
+  std::vector<std::string> warnings;
+  const double cell_m = c.ao.grid_extent_m / c.ao.grid_resolution;
+  if (cell_m < c.fusion.voxel_size_m)
+    warnings.push_back("configuration: the MVAO grid's cells (ao.grid_extent_m / "
+                       "ao.grid_resolution = " + plain_number(cell_m) +
+                       " m) are finer than the TSDF's voxels (fusion.voxel_size_m = " +
+                       plain_number(c.fusion.voxel_size_m) +
+                       " m): more memory and a longer export for no finer AO");
+  // Below about 4 mm a room's TSDF holds tens of millions of voxels: integration, raycast and
+  // the mesh export slow down by the cube of the refinement.
+  constexpr double kFineVoxelM = 0.004;
+  if (c.fusion.voxel_size_m < kFineVoxelM)
+    warnings.push_back("configuration: fusion.voxel_size_m = " +
+                       plain_number(c.fusion.voxel_size_m) + " m is below " +
+                       plain_number(kFineVoxelM) +
+                       " m: fusion and the mesh export take much longer and more memory");
+  return warnings;
 }
 
 }  // namespace aoscan

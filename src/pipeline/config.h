@@ -60,4 +60,8 @@ Config load_config(const std::string& file, const std::vector<std::string>& sets
 /// The configuration as YAML with one comment per key (what `aoscan config` prints).
 std::string dump_config(const Config& config);
 
+/// Valid values that make a run or its export much slower or larger than they need to be (an
+/// MVAO grid finer than the TSDF, a very fine TSDF): one warning each, naming keys and values.
+std::vector<std::string> costly_config_warnings(const Config& config);
+
 }  // namespace aoscan

@@ -52,6 +52,7 @@ void camera_loop(Source& source, std::optional<std::size_t> max_frames,
                  const std::atomic<bool>& stop_requested, ObjectPool<DepthFrame>& pool,
                  BoundedQueue<FramePtr>& queue, CameraOutcome& outcome) {
   std::size_t frames_read = 0;
+  source.watch_stop(&stop_requested);
   while (!stop_requested.load()) {
     if (max_frames && frames_read >= *max_frames) break;
     FramePtr frame = pool.acquire();

@@ -41,15 +41,22 @@ double thread_cpu_s() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-void ReplayPacer::wait_for(double timestamp_s) {
+void ReplayPacer::wait_for(double timestamp_s, const std::atomic<bool>& stop) {
   if (!first_timestamp_) {
     first_timestamp_ = timestamp_s;
     start_ = Clock::now();
   }
   const double offset_s = timestamp_s - *first_timestamp_;
-  if (offset_s > 0)
-    std::this_thread::sleep_until(start_ + std::chrono::duration_cast<Clock::duration>(
-                                               std::chrono::duration<double>(offset_s)));
+  if (!(offset_s > 0)) return;
+  // Beyond about 292 years the duration cast would overflow: such a gap is waited out until stop.
+  const double capped_s = std::min(offset_s, 1e9);
+  const Clock::time_point due =
+      start_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(capped_s));
+  while (!stop.load()) {
+    const Clock::time_point now = Clock::now();
+    if (now >= due) return;
+    std::this_thread::sleep_for(std::min<Clock::duration>(due - now, kStopPollInterval));
+  }
 }
 
 void finish_result(const ChainState& state, std::vector<std::size_t> dropped_at,
@@ -58,6 +65,10 @@ void finish_result(const ChainState& state, std::vector<std::size_t> dropped_at,
   result.counters.frames_read = state.frames_read.load();
   result.counters.frames_processed = state.frames_processed.load();
   result.counters.frames_corrupt = state.frames_corrupt.load();
+  result.counters.frames_out_of_order = state.frames_out_of_order.load();
+  if (result.counters.frames_out_of_order > 1)
+    spdlog::warn("{} frames dropped: their timestamps repeat or go back in time",
+                 result.counters.frames_out_of_order);
   result.counters.frames_dropped_at = std::move(dropped_at);
   result.counters.frames_dropped =
       std::accumulate(result.counters.frames_dropped_at.begin(),
@@ -79,6 +90,7 @@ nlohmann::json PipelineResult::to_json() const {
     dropped_at[stages[i + 1].name()] = c.frames_dropped_at[i];
   j["frames_dropped_at"] = dropped_at;
   j["frames_corrupt"] = c.frames_corrupt;
+  j["frames_out_of_order"] = c.frames_out_of_order;
   j["wall_s"] = wall_s;
   j["fps"] = wall_s > 0 ? static_cast<double>(c.frames_processed) / wall_s : 0.0;
   nlohmann::json stage_times = nlohmann::json::object();

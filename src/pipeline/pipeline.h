@@ -52,6 +52,8 @@ struct PipelineCounters {
   /// Per stage (in chain order): frames dropped at its input; only live inputs drop.
   std::vector<std::size_t> frames_dropped_at;
   std::size_t frames_corrupt = 0;    ///< unreadable frames skipped
+  /// Recorded frames dropped because their timestamp repeats or goes back in time.
+  std::size_t frames_out_of_order = 0;
 };
 
 /// Progress as seen by the last stage.

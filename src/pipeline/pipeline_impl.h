@@ -35,6 +35,7 @@ class ChainState {
   std::atomic<std::size_t> frames_read{0};
   std::atomic<std::size_t> frames_processed{0};
   std::atomic<std::size_t> frames_corrupt{0};
+  std::atomic<std::size_t> frames_out_of_order{0};
   Clock::time_point start;
   std::atomic<std::int64_t> last_done_ns{0};  ///< since `start`
   /// Counts of the inputs that drop (set before the threads start).
@@ -61,7 +62,9 @@ double thread_cpu_s();
 /// Holds a replayed frame until its recorded time, as a camera would deliver it (`--realtime`).
 class ReplayPacer {
  public:
-  void wait_for(double timestamp_s);
+  /// Waits until `timestamp_s` is due; returns early (within kStopPollInterval) when `stop` is
+  /// set, so that a long gap in a recording never delays a stop.
+  void wait_for(double timestamp_s, const std::atomic<bool>& stop);
 
  private:
   std::optional<double> first_timestamp_;
@@ -94,6 +97,8 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
   const auto wall_start = Clock::now();
   const ReadPolicy policy{options.strict, kSkipWarning};
   ReplayPacer pacer;
+  source.watch_stop(&stop_requested);  // a camera's wait for its next frame ends on a stop
+  std::optional<double> last_timestamp;
   while (!stop_requested.load() && !state.failed()) {
     if (options.max_frames && state.frames_read.load() >= *options.max_frames) break;
     FramePtr<Frame> frame = pool.acquire();
@@ -109,10 +114,30 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
       if (!stopped_by.is_ok()) state.fail(stopped_by);
       break;
     }
+    // A recording's timestamps must increase: trajectory.txt is keyed by them, and pacing by them
+    // would stall. A frame that repeats or goes back in time is dropped and counted (strict: an
+    // error). Camera clocks may wrap, so live sources are not checked.
+    if (!source.live()) {
+      if (last_timestamp && !(frame->raw.timestamp_s > *last_timestamp)) {
+        const std::string what =
+            source.name() + " (frame " + std::to_string(frame->raw.sequence) + "): timestamp " +
+            std::to_string(frame->raw.timestamp_s) + " does not follow " +
+            std::to_string(*last_timestamp);
+        if (options.strict) {
+          state.fail(Status::bad_input(what));
+          break;
+        }
+        if (state.frames_out_of_order++ == 0)
+          spdlog::warn("{}: frame dropped, as is every frame whose timestamp repeats or goes back",
+                       what);
+        continue;
+      }
+      last_timestamp = frame->raw.timestamp_s;
+    }
     frame->stage_ms[0] = ms_since(t0);
     stats.add_ms(frame->stage_ms[0]);
     ++state.frames_read;
-    if (options.realtime && !source.live()) pacer.wait_for(frame->raw.timestamp_s);
+    if (options.realtime && !source.live()) pacer.wait_for(frame->raw.timestamp_s, stop_requested);
     // A recording's frame arrives when it is delivered: now (after the pacing, with --realtime).
     if (frame->raw.arrived_at == Clock::time_point{}) frame->raw.arrived_at = Clock::now();
     frame->frames_dropped_before = state.frames_dropped();

@@ -2,6 +2,7 @@
 /// @brief The processing stages and the outputs they leave.
 #include "pipeline/processing.h"
 
+#include <algorithm>
 #include <filesystem>
 
 #include <nlohmann/json.hpp>
@@ -68,7 +69,8 @@ nlohmann::json ProcessingStats::to_json() const {
   return {{"frames_tracking_lost", frames_tracking_lost},
           {"ao_frames_skipped_live", ao_frames_skipped_live},
           {"model_resets", model_resets},
-          {"outputs_written_on_request", outputs_written_on_request}};
+          {"outputs_written_on_request", outputs_written_on_request},
+          {"frames_without_depth", frames_without_depth}};
 }
 
 Processing::Processing(const Config& config, std::string out_dir)
@@ -91,6 +93,9 @@ std::vector<StageDef> Processing::stages() {
 
 Status Processing::preprocess(FrameWork& frame) const {
   preprocess_depth(frame.raw, config_.preprocess, frame.pre.depth_m, &frame.pre.tracking_m);
+  const Image<float>& depth = frame.pre.depth_m;
+  if (std::none_of(depth.data(), depth.data() + depth.size(), [](float d) { return d > 0.0f; }))
+    ++frames_without_depth_;
   return Status::ok();
 }
 
@@ -196,7 +201,7 @@ void Processing::write_requested_outputs(FrameWork& frame) {
 
 ProcessingStats Processing::stats() const {
   return {frames_tracking_lost_, ao_shedder_.skipped(), model_resets_.load(),
-          outputs_written_.load()};
+          outputs_written_.load(), frames_without_depth_.load()};
 }
 
 GridStats Processing::grid_stats() const {
@@ -212,19 +217,19 @@ TsdfStats Processing::tsdf_stats() const {
           static_cast<double>(bytes) / kBytesPerMb, volume.capacity_reached()};
 }
 
-Processing::ExportResult Processing::write_outputs(const std::string& out_dir) const {
-  const std::filesystem::path dir(out_dir);
-  write_trajectory((dir / "trajectory.txt").string(), trajectory_);
+void Processing::write_trajectory_file(const std::string& path) const {
+  write_trajectory(path, trajectory_);
+}
+
+Processing::ExportResult Processing::final_mesh() const {
   auto mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh());
   const std::size_t unobserved = apply_grid_ao(grid_, config_.ao.mesh_cell_factor, *mesh);
-  write_ply((dir / "mesh.ply").string(), *mesh);
   return {{mesh->vertices.size(), mesh->faces.size(), unobserved}, mesh};
 }
 
-VolumeStats Processing::write_volume(const std::string& out_dir) const {
+VolumeStats Processing::write_volume(const std::string& path) const {
   const VdbWriteStats written =
-      aoscan::write_volume((std::filesystem::path(out_dir) / "volume.vdb").string(),
-                           reconstruction_.volume(), &config_.fusion);
+      aoscan::write_volume(path, reconstruction_.volume(), &config_.fusion);
   return {true, written.bricks, written.active_voxels, written.file_bytes, 0.0};
 }
 

@@ -108,6 +108,9 @@ struct ProcessingStats {
   std::size_t ao_frames_skipped_live = 0;  ///< tracked frames without SSAO under live load
   std::size_t model_resets = 0;            ///< `r` commands carried out
   std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
+  /// Frames with no depth left after preprocessing: every raw value 0 (invalid) or outside
+  /// preprocess.min_depth_m .. max_depth_m.
+  std::size_t frames_without_depth = 0;
   nlohmann::json to_json() const;
 };
 
@@ -159,16 +162,19 @@ class Processing {
   GridStats grid_stats() const;
   TsdfStats tsdf_stats() const;
 
-  /// Writes trajectory.txt and mesh.ply into `out_dir` (read after the chain has stopped).
+  /// The run's outputs, read after the chain has stopped. Each write throws Error (exit code 1)
+  /// naming the file when it cannot be written.
+  /// Writes the trajectory (trajectory.txt) to `path`.
+  void write_trajectory_file(const std::string& path) const;
+  /// The fused surface with the grid's AO per vertex, and its stats.
   struct ExportResult {
     MeshStats stats;
-    std::shared_ptr<const TriangleMesh> mesh;  ///< the mesh written, with its AO
+    std::shared_ptr<const TriangleMesh> mesh;
   };
-  ExportResult write_outputs(const std::string& out_dir) const;
-  /// Writes the TSDF as `out_dir`/volume.vdb (see pipeline/volume_export.h; read after the chain
-  /// has stopped). Throws Error (exit code 1) naming the file when it cannot be written; the
-  /// result's export_s is left for the caller, who times the write.
-  VolumeStats write_volume(const std::string& out_dir) const;
+  ExportResult final_mesh() const;
+  /// Writes the TSDF (volume.vdb, see pipeline/volume_export.h) to `path`; the result's export_s
+  /// is left for the caller, who times the write.
+  VolumeStats write_volume(const std::string& path) const;
 
  private:
   Status preprocess(FrameWork& frame) const;
@@ -199,6 +205,7 @@ class Processing {
   std::uint64_t view_products_built_ = 0;  ///< by the mvao stage
   std::atomic<std::size_t> model_resets_{0};
   std::atomic<std::size_t> outputs_written_{0};
+  mutable std::atomic<std::size_t> frames_without_depth_{0};  ///< counted by the preprocess stage
 };
 
 }  // namespace aoscan

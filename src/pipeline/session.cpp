@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <sstream>
 #include <memory>
 #include <thread>
 
@@ -22,6 +23,9 @@
 
 #include "core/host_cpu.h"
 #include "core/log.h"
+#include "io/atomic_write.h"
+#include "io/ply.h"
+#include "pipeline/output_folder.h"
 #include "pipeline/processing.h"
 #include "pipeline/view_stage.h"
 #include "render/live_view.h"
@@ -30,6 +34,18 @@ namespace aoscan {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// Every file a replay or scan may leave in --out: those of an earlier run are moved aside first.
+const std::vector<std::string> kRunOutputs = {"trajectory.txt", "mesh.ply", "stats.json",
+                                              "volume.vdb", "points.ply"};
+
+/// The files this run writes, in the order it writes them (stats.json last).
+std::vector<std::string> outputs_of(const RunOptions& options) {
+  std::vector<std::string> files = {"trajectory.txt", "mesh.ply"};
+  if (options.save_volume) files.push_back("volume.vdb");
+  files.push_back("stats.json");
+  return files;
+}
 
 /// Prints "frames done/total, fps, time left" on one rewritten stderr line, at most 5 times a
 /// second.
@@ -182,23 +198,6 @@ class WindowThread {
   std::thread thread_;
 };
 
-/// Before the run: `out_dir` exists (created) and, with save_volume, volume.vdb can be written in
-/// it. Throws usage_error otherwise.
-void prepare_output(const RunOptions& options) {
-  std::error_code ec;
-  std::filesystem::create_directories(options.out_dir, ec);
-  if (ec || !std::filesystem::is_directory(options.out_dir))
-    throw usage_error("--out " + options.out_dir + ": cannot create folder: " + ec.message());
-  if (options.save_volume) {  // fail now, not after the whole run
-    const std::filesystem::path vdb = std::filesystem::path(options.out_dir) / "volume.vdb";
-    const bool existed = std::filesystem::exists(vdb, ec);
-    if (!std::ofstream(vdb, std::ios::binary | std::ios::app))
-      throw usage_error("--out " + options.out_dir + ": cannot write " + vdb.string() + ": " +
-                        std::strerror(errno));
-    if (!existed) std::filesystem::remove(vdb, ec);  // a check only: no empty file left behind
-  }
-}
-
 /// The chain of one run: processing's stages, and the view stage when something consumes its
 /// frames (a window or snapshots).
 struct ChainSetup {
@@ -294,25 +293,95 @@ void set_outcome(const Source& source, bool stopped, SessionResult& result) {
   }
 }
 
-/// Writes trajectory.txt, mesh.ply, volume.vdb (save_volume) and the last snapshots; fills the
-/// mesh, volume, grid, TSDF and export entries of `result`. A volume.vdb that cannot be written
-/// becomes the run's error when it had none.
+/// While the export runs, says every few seconds how far it is, once it takes longer than that:
+/// a costly configuration can make it take minutes.
+class ExportTicker {
+ public:
+  explicit ExportTicker(const ExportProgress& progress) {
+    thread_ = std::thread([this, &progress] {
+      constexpr auto kEvery = std::chrono::seconds(5);
+      auto next = Clock::now() + kEvery;
+      while (!done_.load()) {
+        std::this_thread::sleep_for(kStopPollInterval);
+        if (Clock::now() < next) continue;
+        next += kEvery;
+        std::fprintf(stderr, "aoscan: writing the outputs: %s\n", progress.describe().c_str());
+      }
+    });
+  }
+  ~ExportTicker() {
+    done_.store(true);
+    thread_.join();
+  }
+  ExportTicker(const ExportTicker&) = delete;
+  ExportTicker& operator=(const ExportTicker&) = delete;
+
+ private:
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
+/// When frames were processed but no surface was fused: the run's error (bad input, exit 3) with
+/// the likeliest reason.
+void check_something_fused(const Source& source, const RunOptions& options,
+                           SessionResult& result) {
+  const std::size_t processed = result.pipeline.counters.frames_processed;
+  if (result.exit_code != ExitCode::kOk || processed == 0 || result.tsdf.blocks > 0) return;
+  const PreprocessConfig& pre = options.config.preprocess;
+  std::ostringstream why;
+  why << source.name() << ": nothing was fused from " << processed << " frames: ";
+  if (result.processing.frames_without_depth == processed) {
+    why << "no frame has valid depth (every raw value is 0, 65535, or outside "
+        << pre.min_depth_m << " to " << pre.max_depth_m
+        << " m at depth_scale " << source.depth_scale() << " units per metre)";
+  } else {
+    const Intrinsics& k = source.intrinsics();
+    why << "every point lies outside the camera's view or the volume (calibration fx " << k.fx
+        << ", fy " << k.fy << ", cx " << k.cx << ", cy " << k.cy << " for " << k.width << "x"
+        << k.height << " from " << source.calibration_origin() << ")";
+  }
+  result.exit_code = ExitCode::kBadInput;
+  result.error = why.str();
+}
+
+/// The calibration the run uses and where it comes from: logged (a warning for a generic
+/// default) and kept for stats.json.
+nlohmann::json report_calibration(const Source& source) {
+  const Intrinsics& k = source.intrinsics();
+  std::ostringstream text;
+  text << "fx " << k.fx << ", fy " << k.fy << ", cx " << k.cx << ", cy " << k.cy << ", "
+       << k.width << "x" << k.height << ", depth_scale " << source.depth_scale();
+  if (source.calibration_is_default())
+    spdlog::warn("{}: {}: {}; write camera.json beside depth.txt to give the camera's own",
+                 source.name(), source.calibration_origin(), text.str());
+  else
+    spdlog::info("{}: calibration {} from {}", source.name(), text.str(), source.calibration_origin());
+  return {{"fx", k.fx},         {"fy", k.fy},
+          {"cx", k.cx},         {"cy", k.cy},
+          {"width", k.width},   {"height", k.height},
+          {"depth_scale", source.depth_scale()},
+          {"origin", source.calibration_origin()}};
+}
+
+/// Writes trajectory.txt, mesh.ply, volume.vdb (save_volume) and the last snapshots, each on its
+/// own: a file that cannot be written is recorded and the others are still written. Fills the
+/// mesh, volume, grid, TSDF and export entries of `result`; the first failed file becomes the
+/// run's error when it had none.
 void export_outputs(const RunOptions& options, const Processing& processing, ViewStage* view,
-                    SessionResult& result) {
+                    OutputFolder& outputs, ExportProgress& progress, SessionResult& result) {
   const auto export_start = Clock::now();
-  const Processing::ExportResult exported = processing.write_outputs(options.out_dir);
+  progress.start(outputs_of(options));
+  outputs.write("trajectory.txt",
+                [&](const std::string& path) { processing.write_trajectory_file(path); });
+  progress.step("extracting the mesh");
+  const Processing::ExportResult exported = processing.final_mesh();
   result.mesh = exported.stats;
+  outputs.write("mesh.ply", [&](const std::string& path) { write_ply(path, *exported.mesh); });
   if (options.save_volume) {
     const auto volume_start = Clock::now();
-    try {
-      result.volume = processing.write_volume(options.out_dir);
-    } catch (const Error& e) {  // mesh.ply and trajectory.txt are out: still write stats.json
-      result.volume = VolumeStats{};
-      if (result.exit_code == ExitCode::kOk) {
-        result.exit_code = e.code();
-        result.error = e.what();
-      }
-    }
+    result.volume = VolumeStats{};
+    outputs.write("volume.vdb",
+                  [&](const std::string& path) { result.volume = processing.write_volume(path); });
     result.volume->export_s = std::chrono::duration<double>(Clock::now() - volume_start).count();
   }
   result.session.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
@@ -322,6 +391,7 @@ void export_outputs(const RunOptions& options, const Processing& processing, Vie
                  result.grid.points_out_of_range);
   result.tsdf = processing.tsdf_stats();
   if (view) {
+    progress.step("writing the last snapshots");
     view->finish(exported.mesh);  // the last set of snapshots shows the final mesh in orbit
     result.session.snapshot_files = view->snapshot_files();
   }
@@ -330,12 +400,12 @@ void export_outputs(const RunOptions& options, const Processing& processing, Vie
         "the TSDF reached its capacity of {} blocks (fusion.max_blocks): surface beyond it "
         "was not fused",
         processing.reconstruction().volume().max_blocks());
-}
-
-void write_stats_json(const std::string& path, const SessionResult& result) {
-  std::ofstream out(path);
-  out << result.to_json().dump(2) << "\n";
-  if (!out) throw Error(ExitCode::kFailure, path + ": cannot write");
+  result.files = outputs.files_json();
+  result.failed_outputs = outputs.failures_json();
+  if (result.exit_code == ExitCode::kOk && !outputs.first_failure().empty()) {
+    result.exit_code = ExitCode::kFailure;
+    result.error = outputs.first_failure();
+  }
 }
 
 }  // namespace
@@ -357,6 +427,11 @@ nlohmann::json SessionStats::to_json() const {
           {"live_view", live_view_lost ? "display_lost" : live_view_shown ? "shown" : "none"}};
 }
 
+const char* SessionResult::status() const {
+  if (exit_code != ExitCode::kOk) return "failed";
+  return interrupted ? "interrupted" : "complete";
+}
+
 nlohmann::json SessionResult::to_json() const {
   nlohmann::json j = pipeline.to_json();
   j.update(processing.to_json());
@@ -365,17 +440,30 @@ nlohmann::json SessionResult::to_json() const {
   j["mvao_grid"] = grid.to_json();
   j["tsdf"] = tsdf.to_json();
   if (volume) j["volume"] = volume->to_json();
-  j["status"] = exit_code == ExitCode::kOk ? "ok" : error;
+  j["status"] = status();
+  j["error"] = exit_code == ExitCode::kOk ? nlohmann::json(nullptr) : nlohmann::json(error);
+  j["stopped_by"] = stopped_by.empty() ? nlohmann::json(nullptr) : nlohmann::json(stopped_by);
+  j["calibration"] = calibration;
+  j["files"] = files;
+  j["failed_outputs"] = failed_outputs;
   return j;
 }
 
 SessionResult run_session(Source& source, const RunOptions& options,
                           const std::atomic<bool>& stop_requested) {
-  prepare_output(options);
+  ExportProgress own_progress;
+  ExportProgress& progress = options.export_progress ? *options.export_progress : own_progress;
+  OutputFolder outputs(options.out_dir, &progress);
+  outputs.prepare(kRunOutputs, outputs_of(options));
+  for (const std::string& warning : costly_config_warnings(options.config))
+    spdlog::warn("{}", warning);
   SessionResult result;
-  result.session.threads =
-      options.threads > 0 ? options.threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  result.calibration = report_calibration(source);
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  result.session.threads = options.threads > 0 ? std::min(options.threads, cores) : cores;
+  if (options.threads > cores)
+    spdlog::warn("--threads {}: this machine runs {} threads at once; {} are used",
+                 options.threads, cores, cores);
   tbb::global_control thread_budget(tbb::global_control::max_allowed_parallelism,
                                     static_cast<std::size_t>(result.session.threads));
 
@@ -384,8 +472,26 @@ SessionResult run_session(Source& source, const RunOptions& options,
   const bool stopped =
       run_with_controls(source, options, processing, chain, stop_requested, result);
   set_outcome(source, stopped, result);
-  export_outputs(options, processing, chain.view.get(), result);
-  write_stats_json((std::filesystem::path(options.out_dir) / "stats.json").string(), result);
+  if (stopped && result.exit_code == ExitCode::kOk) {
+    result.stopped_by = result.session.quit_by_user ? "quit" : "signal";
+    // A camera's stream ends when the user stops it; a recording stopped early is incomplete.
+    result.interrupted = !source.live();
+  }
+  {
+    std::optional<ExportTicker> ticker;
+    if (options.show_progress) ticker.emplace(progress);
+    export_outputs(options, processing, chain.view.get(), outputs, progress, result);
+  }
+  check_something_fused(source, options, result);
+  // Last, so that it vouches for the files written before it (stats.json's "files").
+  const std::string stats_path = outputs.path("stats.json");
+  write_atomically(stats_path, [&result](const std::string& partial) {
+    std::ofstream out(partial);
+    out << result.to_json().dump(2) << "\n";
+    out.close();
+    if (!out) throw_write_failed(partial);
+  });
+  progress.done("stats.json");
   spdlog::info("{} frames processed in {:.2f} s", result.pipeline.counters.frames_processed,
                result.pipeline.wall_s);
   // Above this share of stolen CPU time the run's speed says more about the host than about it.

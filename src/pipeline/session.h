@@ -7,10 +7,11 @@
 #include <optional>
 #include <string>
 
-#include <nlohmann/json_fwd.hpp>
+#include <nlohmann/json.hpp>
 
 #include "capture/source.h"
 #include "pipeline/config.h"
+#include "pipeline/output_folder.h"
 #include "pipeline/pipeline.h"
 #include "pipeline/processing.h"
 #include "render/view_commands.h"
@@ -40,6 +41,8 @@ struct RunOptions {
   /// window feeds. Polled every few milliseconds while the chain runs: reset, pause/resume,
   /// write outputs now, quit (= SIGINT: stop capture, finish the frames in flight, write outputs).
   ViewCommandQueue* commands = nullptr;
+  /// Told where the export stands (may be null): the signal handling reports it.
+  ExportProgress* export_progress = nullptr;
 };
 
 /// What the session itself measured and saw (stats.json top-level keys).
@@ -67,17 +70,28 @@ struct SessionResult {
   TsdfStats tsdf;
   std::optional<VolumeStats> volume;  ///< with --save-volume
   SessionStats session;
+  /// A recording or synthetic stream stopped (signal, quit) before its end.
+  bool interrupted = false;
+  std::string stopped_by;  ///< "signal" or "quit" when the run was stopped; else empty
+  nlohmann::json calibration;  ///< the intrinsics and depth scale used, with their origin
+  nlohmann::json files;           ///< the outputs written, with their sizes (stats.json "files")
+  nlohmann::json failed_outputs;  ///< the outputs that could not be written, with their errors
 
-  /// stats.json: every part's entries, and "status".
+  /// "complete", "interrupted" (exit 0, stopped before the end of a recording) or "failed".
+  const char* status() const;
+  /// stats.json: every part's entries, "status", "error", "stopped_by", "files" and
+  /// "failed_outputs".
   nlohmann::json to_json() const;
 };
 
 /// Runs `source` through the chain (plus a "view" stage when a window or snapshots are wanted),
-/// then writes trajectory.txt, mesh.ply and stats.json into options.out_dir — also when the run
-/// stopped on an error, a signal or the user's quit, so nothing already fused is lost. With
-/// save_volume, volume.vdb is written after mesh.ply; when that fails the run ends with that
-/// error (exit code 1) but stats.json is still written. Throws Error only when the output or
-/// snapshot folder (or, with save_volume, volume.vdb in it) cannot be created.
+/// then writes trajectory.txt, mesh.ply (and, with save_volume, volume.vdb) and last stats.json
+/// into options.out_dir — also when the run stopped on an error, a signal or the user's quit, so
+/// nothing already fused is lost. Every file is written atomically; one that cannot be written
+/// is listed in stats.json's "failed_outputs", the others are still written, and the run ends
+/// with that error (exit code 1). Before the run the output folder is checked and an earlier
+/// run's files in it are moved to `previous/` (OutputFolder::prepare). Throws Error only when the
+/// output or snapshot folder cannot be created or written.
 SessionResult run_session(Source& source, const RunOptions& options,
                           const std::atomic<bool>& stop_requested);
 

@@ -108,6 +108,53 @@ TEST(Config, BrokenFilesAreUsageErrorsNamingTheFile) {
   }
 }
 
+TEST(Config, KeysGivenTwiceAreUsageErrors) {
+  aoscan::testing::ScratchDir scratch;
+  const auto yaml = write_temp(scratch, "twice.yaml", "ao:\n  radius_m: 0.3\n  radius_m: 0.4\n");
+  const auto mixed = write_temp(scratch, "mixed.yaml", "ao:\n  radius_m: 0.3\nao.radius_m: 0.4\n");
+  const auto json = write_temp(scratch, "twice.json", R"({"ao": {"samples": 8, "samples": 16}})");
+  for (const auto& path : {yaml, mixed, json}) {
+    try {
+      load_config(path, {});
+      ADD_FAILURE() << path;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ExitCode::kUsage);
+      EXPECT_NE(std::string(e.what()).find(path + ": configuration key ao."), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find(" is given twice"), std::string::npos) << e.what();
+    }
+  }
+  // The same key in two objects is no repeat.
+  const auto apart = write_temp(scratch, "apart.json", R"({"ao": {"samples": 8}, "tracking": {}})");
+  EXPECT_EQ(load_config(apart, {}).ao.samples, 8);
+  EXPECT_EQ(code_of([] { load_config("", {"ao.samples=8", "ao.samples=9"}); }), ExitCode::kUsage);
+}
+
+TEST(Config, RangesAreNamedInPlainNumbers) {
+  try {
+    load_config("", {"ao.bias=-1"});
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("ao.bias is out of range: it must be"), std::string::npos) << what;
+    EXPECT_EQ(what.find("e-"), std::string::npos) << what;  // no exponent
+    EXPECT_EQ(what.find("e+"), std::string::npos) << what;
+  }
+}
+
+TEST(Config, CostlyValuesAreWarned) {
+  EXPECT_TRUE(costly_config_warnings(Config{}).empty());
+  Config fine;
+  fine.fusion.voxel_size_m = 0.002;
+  fine.fusion.truncation_m = 0.01;
+  ASSERT_EQ(costly_config_warnings(fine).size(), 1u);
+  EXPECT_NE(costly_config_warnings(fine)[0].find("fusion.voxel_size_m = 0.002 m"), std::string::npos);
+  Config grid;
+  grid.ao.grid_resolution = 1024;  // 3.9 mm cells under 7.8 mm voxels
+  ASSERT_EQ(costly_config_warnings(grid).size(), 1u);
+  EXPECT_NE(costly_config_warnings(grid)[0].find("0.00390625 m"), std::string::npos);
+}
+
 TEST(Config, DumpRoundTrips) {
   aoscan::testing::ScratchDir scratch;
   Config changed = load_config("", {"ao.radius_m=0.15", "ao.integration=last"});
