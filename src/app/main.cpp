@@ -2,6 +2,8 @@
 /// @brief aoscan command line: replay, scan, record, devices, config, scans.
 #include <pthread.h>
 #include <signal.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
@@ -35,6 +37,17 @@ sigset_t stop_signal_set() {
   return set;
 }
 
+/// The thread that takes the stop signals (0 before it runs).
+std::atomic<pid_t> g_signal_thread{0};
+
+/// Threads that libraries started before main() (a logging pool of a camera SDK, say) do not
+/// block the stop signals, and the kernel may pick one of them for a signal sent to the process.
+/// This handler, running there, passes the signal on to the signal thread.
+extern "C" void forward_stop_signal(int signo) {
+  const pid_t target = g_signal_thread.load();
+  if (target != 0) syscall(SYS_tgkill, getpid(), target, signo);
+}
+
 /// Takes the stop signals on a thread of its own (they are blocked in every other thread, so
 /// none is ever interrupted by one): the first asks the run to stop, finish the frames in flight
 /// and write the outputs; a second, during the export, says how far it is and still lets it
@@ -45,11 +58,23 @@ class StopSignals {
       : stop_requested_(stop_requested), progress_(progress) {
     const sigset_t set = stop_signal_set();
     pthread_sigmask(SIG_BLOCK, &set, nullptr);  // before any other thread starts: all inherit it
-    thread_ = std::thread([this, set] { take_signals(set); });
+    std::atomic<bool> started{false};
+    thread_ = std::thread([this, set, &started] {
+      g_signal_thread.store(static_cast<pid_t>(syscall(SYS_gettid)));
+      started.store(true);
+      take_signals(set);
+    });
+    while (!started.load()) std::this_thread::yield();
+    struct sigaction action {};
+    action.sa_handler = forward_stop_signal;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;
+    for (int signo : kStopSignals) sigaction(signo, &action, nullptr);
   }
   ~StopSignals() {
     done_.store(true);
     thread_.join();
+    g_signal_thread.store(0);
   }
   StopSignals(const StopSignals&) = delete;
   StopSignals& operator=(const StopSignals&) = delete;

@@ -69,6 +69,10 @@ class TumSource final : public Source {
     }
 
     if (!size_known_) probe_size();
+    // A camera.json of a camera that cannot exist (the defaults stand for 640x480 cameras).
+    if (is_file(camera))
+      if (const std::string why = intrinsics_.implausible(); !why.empty())
+        throw input_error(camera + ": " + why);
   }
 
   Status read(DepthFrame& frame) override {

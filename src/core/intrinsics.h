@@ -2,6 +2,8 @@
 /// @brief Pinhole intrinsics of a depth camera: projection, back-projection, pyramid scaling.
 #pragma once
 
+#include <string>
+
 #include <Eigen/Core>
 
 namespace aoscan {
@@ -44,6 +46,10 @@ struct Intrinsics {
   }
   /// True when every value is finite and positive where it must be.
   bool valid() const;
+  /// Why these intrinsics cannot be a real camera's, or empty: a principal point outside the
+  /// image, or a field of view beyond 170 degrees. Such a calibration sends the rays of the model
+  /// raycast kilometres sideways (minutes per frame) and fuses nothing useful.
+  std::string implausible() const;
 
   bool operator==(const Intrinsics& o) const {
     return width == o.width && height == o.height && fx == o.fx && fy == o.fy && cx == o.cx &&

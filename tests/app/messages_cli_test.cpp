@@ -111,6 +111,26 @@ TEST(CliMessages, RunThatFusedNothingExitsThreeWithTheReason) {
   EXPECT_NE(error_line(far).find("no frame has valid depth"), std::string::npos) << far.err;
 }
 
+TEST(CliMessages, ImpossibleCalibrationIsRefusedNamingTheValue) {
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("impossible");
+  const fs::path rec = make_recording(dir);
+  // A principal point far outside the image sent every raycast ray kilometres sideways: minutes
+  // per frame for nothing. Refused at once, naming the file and the value.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {R"({"fx": 52.5, "fy": 52.5, "cx": 100000, "cy": 23.5, "depth_scale": 5000})", "cx 100000"},
+      {R"({"fx": 0.001, "fy": 52.5, "cx": 31.5, "cy": 23.5, "depth_scale": 5000})", "fx 0.001"}};
+  for (const auto& [json, needle] : cases) {
+    std::ofstream(rec / "camera.json") << json;
+    const CliRun r = run_aoscan(
+        "replay " + quote(rec.string()) + " --headless --out " + quote((dir / "o").string()), dir);
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_NE(error_line(r).find((rec / "camera.json").string() + ": " + needle),
+              std::string::npos)
+        << r.err;
+  }
+}
+
 TEST(CliMessages, RepeatedOrBackwardTimestampsAreCountedAndDropped) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("stamps");

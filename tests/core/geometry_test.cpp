@@ -18,6 +18,21 @@ TEST(Intrinsics, ProjectUnprojectRoundTrip) {
   EXPECT_DOUBLE_EQ(centre.y(), 240.0);
 }
 
+TEST(Intrinsics, ImplausibleNamesThePrincipalPointOrTheFieldOfView) {
+  EXPECT_EQ(Intrinsics({640, 480, 525.0, 525.0, 319.5, 239.5}).implausible(), "");
+  EXPECT_EQ(Intrinsics({640, 480, 525.0, 525.0, 640.0, 0.0}).implausible(), "");  // on the edge
+  EXPECT_EQ(Intrinsics({640, 480, 525.0, 525.0, -1.0, 239.5}).implausible(),
+            "cx -1 lies outside the image (0 to 640)");
+  EXPECT_EQ(Intrinsics({640, 480, 525.0, 525.0, 319.5, 480.5}).implausible(),
+            "cy 480.5 lies outside the image (0 to 480)");
+  // 170 degrees across 640 pixels: f = 320 / tan(85 deg) = 27.997 px.
+  EXPECT_EQ(Intrinsics({640, 480, 28.0, 525.0, 319.5, 239.5}).implausible(), "");
+  EXPECT_EQ(Intrinsics({640, 480, 27.9, 525.0, 319.5, 239.5}).implausible(),
+            "fx 27.9 gives a field of view over 170 degrees across 640 pixels");
+  EXPECT_EQ(Intrinsics({640, 480, 525.0, 20.0, 319.5, 239.5}).implausible(),
+            "fy 20 gives a field of view over 170 degrees across 480 pixels");
+}
+
 TEST(Intrinsics, PyramidScalingKeepsRaysThroughBlockCentres) {
   const Intrinsics k{640, 480, 525.0, 525.0, 319.5, 239.5};
   const Intrinsics k1 = k.scaled(1);
