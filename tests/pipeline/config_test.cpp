@@ -108,6 +108,65 @@ TEST(Config, BrokenFilesAreUsageErrorsNamingTheFile) {
   }
 }
 
+// Found by fuzz/config_json_fuzz: a JSON file nested 100000 levels deep overflowed the stack
+// while its keys were flattened. Keys have two parts, so deep nesting is an unknown key.
+TEST(Config, DeeplyNestedFilesAreUsageErrorsNamingTheFile) {
+  aoscan::testing::ScratchDir scratch;
+  constexpr int kLevels = 100000;
+  std::string json, yaml;
+  for (int i = 0; i < kLevels; ++i) json += "{\"a\":";
+  json += "1" + std::string(kLevels, '}');
+  for (int i = 0; i < 500; ++i) yaml += "{a: ";
+  yaml += "1" + std::string(500, '}') + "\n";
+  const auto deep_json = write_temp(scratch, "deep.json", json);
+  const auto deep_yaml = write_temp(scratch, "deep.yaml", yaml);
+  const auto nine = write_temp(scratch, "nine.json", R"({"a":{"a":{"a":{"a":{"a":{"a":{"a":{"a":{"a":1}}}}}}}}})");
+  for (const auto& path : {deep_json, deep_yaml, nine}) {
+    try {
+      load_config(path, {});
+      ADD_FAILURE() << path;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ExitCode::kUsage);
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(path + ": unknown configuration key 'a.a.a.a.a.a.a.a...' (nested more "
+                              "than 8 levels", 0),
+                0u)
+          << message;
+    }
+  }
+  // Three levels still reach the key check as before.
+  const auto three = write_temp(scratch, "three.json", R"({"ao": {"radius_m": {"x": 1}}})");
+  try {
+    load_config(three, {});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              three + ": unknown configuration key 'ao.radius_m.x' (aoscan config lists every key)");
+  }
+}
+
+// Found by fuzz/config_fuzz: a YAML key that is a list or a map ("{[a]: 1}") escaped as
+// yaml-cpp's conversion exception instead of a usage error naming the file.
+TEST(Config, YamlKeyThatIsNotAWordIsAUsageErrorNamingTheFile) {
+  aoscan::testing::ScratchDir scratch;
+  const auto list_key = write_temp(scratch, "listkey.yaml", "{[a]: 1}\n");
+  const auto map_key = write_temp(scratch, "mapkey.yaml", "ao:\n  ? {radius_m: 1}\n  : 2\n");
+  try {
+    load_config(list_key, {});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kUsage);
+    EXPECT_EQ(std::string(e.what()), list_key + ": a configuration key must be a word");
+  }
+  try {
+    load_config(map_key, {});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kUsage);
+    EXPECT_EQ(std::string(e.what()), map_key + ": a configuration key must be a word (in ao)");
+  }
+}
+
 TEST(Config, DumpRoundTrips) {
   aoscan::testing::ScratchDir scratch;
   Config changed = load_config("", {"ao.radius_m=0.15", "ao.integration=last"});
