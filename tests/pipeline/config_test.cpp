@@ -116,8 +116,8 @@ TEST(Config, DeeplyNestedFilesAreUsageErrorsNamingTheFile) {
   std::string json, yaml;
   for (int i = 0; i < kLevels; ++i) json += "{\"a\":";
   json += "1" + std::string(kLevels, '}');
-  for (int i = 0; i < 500; ++i) yaml += "{a: ";
-  yaml += "1" + std::string(500, '}') + "\n";
+  for (int i = 0; i < 20; ++i) yaml += std::string(2 * i, ' ') + "a:\n";  // block style
+  yaml += std::string(40, ' ') + "b: 1\n";
   const auto deep_json = write_temp(scratch, "deep.json", json);
   const auto deep_yaml = write_temp(scratch, "deep.yaml", yaml);
   const auto nine = write_temp(scratch, "nine.json", R"({"a":{"a":{"a":{"a":{"a":{"a":{"a":{"a":{"a":1}}}}}}}}})");
