@@ -66,6 +66,8 @@ std::vector<ScanEntry> read_meshlab_project(const std::string& path) {
     const char* label = layer->Attribute("label");
     e.name = label && *label ? label : fs::path(file).stem().string();
     if (e.name.find('/') != std::string::npos) e.name = fs::path(e.name).filename().string();
+    if (e.name.empty())  // a label such as "/scan/" has no file name to keep
+      throw input_error(where + ": label '" + std::string(label ? label : "") + "' is not a name");
     if (fs::path(e.path).extension() != ".ply")
       throw input_error(where + " (" + e.name + "): " + e.path + " is not a PLY file");
     std::error_code ec;
