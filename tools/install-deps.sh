@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian packages aoscan needs. Usage: tools/install-deps.sh [--tests]
+# Installs the Debian packages aoscan needs. Usage: tools/install-deps.sh [--tests] [--fuzz]
+# --tests adds the test suite's packages, --fuzz clang and libFuzzer (tools/fuzz.sh).
 # Uses sudo only when not root; does nothing when every package is already installed.
 set -euo pipefail
 
@@ -10,10 +11,15 @@ packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-de
           libopenni2-dev libfreenect-dev             # live cameras (libusb comes with libfreenect)
           libglfw3-dev libglm-dev libgl-dev          # live view: GLFW window, GLM, GL headers
           libx11-dev libxrandr-dev)                  # live view: surviving a lost X display (glfw3native.h)
-if [[ "${1:-}" == "--tests" ]]; then
-  # The GL tests run on a virtual X server with Mesa's software OpenGL.
-  packages+=(libgtest-dev xvfb xauth libgl1-mesa-dri libegl-mesa0 libglx-mesa0)
-fi
+for arg in "$@"; do
+  case "$arg" in
+    --tests)  # The GL tests run on a virtual X server with Mesa's software OpenGL.
+      packages+=(libgtest-dev xvfb xauth libgl1-mesa-dri libegl-mesa0 libglx-mesa0) ;;
+    --fuzz)  # clang 14 and its runtime libraries (libFuzzer, ASan, UBSan)
+      packages+=(clang libclang-rt-14-dev) ;;
+    *) echo "usage: tools/install-deps.sh [--tests] [--fuzz]" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <system_error>
 #include <set>
 #include <sstream>
 
@@ -41,7 +42,8 @@ Pose layer_pose(const tinyxml2::XMLElement* layer, const std::string& where) {
 std::vector<ScanEntry> read_meshlab_project(const std::string& path) {
   tinyxml2::XMLDocument doc;
   if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS) {
-    if (!fs::exists(path)) throw input_error(path + ": cannot open MeshLab project");
+    std::error_code ec;  // the throwing overloads escape on a name too long for the file system
+    if (!fs::exists(path, ec)) throw input_error(path + ": cannot open MeshLab project");
     throw input_error(path + ": not a MeshLab project (XML error: " +
                       std::string(doc.ErrorStr() ? doc.ErrorStr() : "unknown") + ")");
   }
@@ -64,9 +66,12 @@ std::vector<ScanEntry> read_meshlab_project(const std::string& path) {
     const char* label = layer->Attribute("label");
     e.name = label && *label ? label : fs::path(file).stem().string();
     if (e.name.find('/') != std::string::npos) e.name = fs::path(e.name).filename().string();
+    if (e.name.empty())  // a label such as "/scan/" has no file name to keep
+      throw input_error(where + ": label '" + std::string(label ? label : "") + "' is not a name");
     if (fs::path(e.path).extension() != ".ply")
       throw input_error(where + " (" + e.name + "): " + e.path + " is not a PLY file");
-    if (!fs::is_regular_file(e.path))
+    std::error_code ec;
+    if (!fs::is_regular_file(e.path, ec))
       throw input_error(where + " (" + e.name + "): no such file: " + e.path);
     e.T_world_scan = layer_pose(layer, where + " (" + e.name + ")");
     if (!names.insert(e.name).second)

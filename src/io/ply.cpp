@@ -430,6 +430,9 @@ TriangleMesh read_ply(const std::string& path) {
                         " " + e.name + " elements");
     std::vector<int> role(e.properties.size(), -1);
     if (e.name == "vertex") {
+      // A second vertex element would resize the positions but not the quality or normals of
+      // the first: the mesh's arrays would disagree.
+      if (have_vertices) throw input_error(path + ": PLY has more than one vertex element");
       role = vertex_roles(path, e, mesh);
       have_vertices = true;
     }

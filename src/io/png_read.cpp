@@ -128,6 +128,22 @@ const char* colour_name(int color_type) {
   }
 }
 
+/// Walks the chunks after the signature up to IEND; false when a chunk's length runs past the end
+/// of the file. libpng allocates (and clears) a chunk's buffer from that length before it reads
+/// the data, so a 69-byte file claiming a 1.8 GB zTXt chunk would cost 1.8 GB before failing as
+/// truncated.
+bool chunks_fit(const std::vector<unsigned char>& bytes) {
+  std::size_t pos = 8;
+  while (bytes.size() - pos >= 8) {
+    const std::uint64_t length = (std::uint64_t{bytes[pos]} << 24) | (bytes[pos + 1] << 16) |
+                                 (bytes[pos + 2] << 8) | bytes[pos + 3];
+    if (length + 4 > bytes.size() - pos - 8) return false;  // the data and the CRC
+    if (std::memcmp(bytes.data() + pos + 4, "IEND", 4) == 0) break;
+    pos += 8 + length + 4;
+  }
+  return true;  // a file cut between two chunks is libpng's to report
+}
+
 /// Reads the whole file into `bytes` (reused); returns 0 or an errno value.
 int read_file(const std::string& path, std::vector<unsigned char>& bytes) {
   errno = 0;
@@ -170,6 +186,7 @@ Status read_grey16_png(const std::string& path, Image<std::uint16_t>& out,
       const bool prefix = png_sig_cmp(bytes.data(), 0, bytes.size()) == 0;
       return fail(prefix ? "truncated PNG" : "not a PNG file");
     }
+    if (!chunks_fit(bytes)) return fail("truncated PNG");
     DecodeState state;
     state.data = bytes.data();
     state.size = bytes.size();

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <system_error>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -128,7 +129,8 @@ ScanEntry read_entry(const YAML::Node& node, const fs::path& base, Context& c) {
     }
   }
   e.T_world_scan = read_pose(node["pose"], c);
-  if (!fs::is_regular_file(e.path)) c.fail("no such file: " + e.path);
+  std::error_code ec;  // the throwing overload escapes on a name too long for the file system
+  if (!fs::is_regular_file(e.path, ec)) c.fail("no such file: " + e.path);
   return e;
 }
 

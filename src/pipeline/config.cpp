@@ -169,13 +169,27 @@ struct SectionDump {
   }
 };
 
+/// Keys have two parts (SECTION.FIELD): a deeper tree cannot name one. Flattening stops there, so
+/// that a file nested thousands of levels deep is an unknown key, not a stack overflow.
+constexpr int kMaxKeyDepth = 8;
+
+[[noreturn]] void too_deep(const std::string& prefix, const std::string& path) {
+  throw usage_error(path + ": unknown configuration key '" + prefix.substr(0, 80) +
+                    "...' (nested more than " + std::to_string(kMaxKeyDepth) +
+                    " levels; aoscan config lists every key)");
+}
+
 /// Flattens a YAML tree into dotted keys.
 void flatten_yaml(const YAML::Node& node, const std::string& prefix,
-                  std::map<std::string, std::string>& out, const std::string& path) {
+                  std::map<std::string, std::string>& out, const std::string& path, int depth = 0) {
   if (node.IsMap()) {
+    if (depth >= kMaxKeyDepth) too_deep(prefix, path);
     for (const auto& kv : node) {
-      const std::string key = kv.first.as<std::string>();
-      flatten_yaml(kv.second, prefix.empty() ? key : prefix + "." + key, out, path);
+      if (!kv.first.IsScalar())
+        throw usage_error(path + ": a configuration key must be a word" +
+                          (prefix.empty() ? std::string() : " (in " + prefix + ")"));
+      const std::string key = kv.first.Scalar();
+      flatten_yaml(kv.second, prefix.empty() ? key : prefix + "." + key, out, path, depth + 1);
     }
   } else if (node.IsScalar()) {
     if (!out.emplace(prefix, node.Scalar()).second)
@@ -188,10 +202,11 @@ void flatten_yaml(const YAML::Node& node, const std::string& prefix,
 }
 
 void flatten_json(const nlohmann::json& node, const std::string& prefix,
-                  std::map<std::string, std::string>& out, const std::string& path) {
+                  std::map<std::string, std::string>& out, const std::string& path, int depth = 0) {
   if (node.is_object()) {
+    if (depth >= kMaxKeyDepth) too_deep(prefix, path);
     for (const auto& [key, value] : node.items())
-      flatten_json(value, prefix.empty() ? key : prefix + "." + key, out, path);
+      flatten_json(value, prefix.empty() ? key : prefix + "." + key, out, path, depth + 1);
   } else if (node.is_string() || node.is_number() || node.is_boolean()) {
     if (!out.emplace(prefix, node.is_string() ? node.get<std::string>() : node.dump()).second)
       throw usage_error(path + ": configuration key " + prefix + " is given twice");

@@ -194,6 +194,13 @@ TEST(Ply, RejectsBadFiles) {
       "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
       "property float y\nproperty float z\nend_header\n0123456789ab",
       "too short");
+  // Found by fuzz/ply_fuzz: a second vertex element (here without quality) resized the
+  // positions but not the first element's quality, and the mesh's arrays disagreed.
+  expect_input_error(
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float quality\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n0 0 0 0.5\n0 0 0\n1 1 1\n",
+      "bad.ply: PLY has more than one vertex element");
 
   // A valid binary file cut anywhere in its data is rejected, never read past its end.
   write_ply(path, square());

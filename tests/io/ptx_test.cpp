@@ -126,6 +126,13 @@ TEST(MeshlabProject, BadProjectsAreOneLineErrors) {
        "not a rigid transform"},
       {project("<MLMesh filename=\"a.ply\"/><MLMesh filename=\"a.ply\"/>"),
        "another layer is named a"},
+      // A file name too long for the file system (ENAMETOOLONG) is missing, not an escaping
+      // std::filesystem exception (as fuzz/scan_manifest_fuzz found for scan manifests).
+      {project("<MLMesh label=\"long\" filename=\"" + std::string(300, 'x') + ".ply\"/>"),
+       "layer 1 (long): no such file"},
+      // Found by fuzz/meshlab_project_fuzz: a label ending in '/' gave a layer an empty name.
+      {project("<MLMesh label=\"/scan/\" filename=\"a.ply\"/>"),
+       "p.mlp: layer 1: label '/scan/' is not a name"},
   };
   for (const auto& c : cases) {
     write_text(dir.file("p.mlp"), c.text);

@@ -90,6 +90,10 @@ TEST(ScanManifest, BadManifestsAreOneLineErrorsNamingTheScan) {
       {"scans: [{points: c.ply, scanner: [0, 0]}]", "list of 3 numbers"},
       {"scans: [{depth: c.ply, " + cam + ", scanner: [0, 0, 0]}]", "scanner is for point clouds"},
       {"scans: [{points: c.ply, colour: red}]", "unknown key 'colour'"},
+      // Found by fuzz/scan_manifest_fuzz: a file name too long for the file system (ENAMETOOLONG)
+      // escaped as std::filesystem's exception.
+      {"scans: [{name: long, points: " + std::string(300, 'x') + ".ply}]",
+       "scan 1 (long): no such file"},
   };
   for (const auto& c : cases) {
     const std::string message = error_of(dir, c.text);

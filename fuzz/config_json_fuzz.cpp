@@ -1,0 +1,14 @@
+/// @file config_json_fuzz.cpp
+/// @brief libFuzzer target: a JSON configuration file (`--config FILE.json`), loaded and validated.
+#include "fuzz/fuzz_input.h"
+#include "pipeline/config.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace aoscan;
+  static fuzz::InputFile file("config.json");
+  const std::string& path = file.write(data, size);
+  Config config;
+  if (fuzz::expect_errors(path, [&] { load_config_file(config, path); }))
+    fuzz::expect_errors("configuration", [&] { validate_config(config); });
+  return 0;
+}
