@@ -104,6 +104,14 @@ class TumSource final : public Source {
   const Intrinsics& intrinsics() const override { return intrinsics_; }
   double depth_scale() const override { return depth_scale_; }
   std::optional<std::size_t> size() const override { return entries_.size(); }
+  bool seekable() const override { return true; }
+  Status seek(std::size_t index) override {
+    if (index >= entries_.size())
+      return Status::internal(folder_ + ": cannot seek to frame " + std::to_string(index) +
+                              " of " + std::to_string(entries_.size()));
+    next_ = index;
+    return Status::ok();
+  }
 
  private:
   /// Without a size in camera.json, the first frame that decodes sets it; it is kept for read().
