@@ -5,11 +5,13 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <functional>
 #include <memory>
 
 #include <tbb/global_control.h>
 
 #include "capture/devices.h"
+#include "capture/loop_source.h"
 #include "capture/output_file.h"
 #include "capture/recorder.h"
 #include "capture/source.h"
@@ -18,6 +20,23 @@
 #include "pipeline/live_recorder.h"
 
 namespace aoscan {
+namespace {
+
+/// `--progress-every S`: one line on stderr whenever S seconds have passed since the last one
+/// (checked as frames finish), e.g.
+/// `aoscan: progress: 1200 frames processed, 1300 read, 95 dropped, 60.0 s`.
+std::function<void(const Progress&)> progress_lines(double every_s) {
+  auto next_s = std::make_shared<double>(every_s);
+  return [every_s, next_s](const Progress& p) {
+    if (p.elapsed_s < *next_s) return;
+    while (*next_s <= p.elapsed_s) *next_s += every_s;
+    std::fprintf(stderr, "aoscan: progress: %zu frames processed, %zu read, %zu dropped, %.1f s\n",
+                 p.frames_processed, p.frames_read, p.frames_dropped, p.elapsed_s);
+    std::fflush(stderr);
+  };
+}
+
+}  // namespace
 
 ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested) {
   RunOptions options = args.run;
@@ -29,9 +48,15 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
     throw usage_error("--device " + args.source +
                       ": unknown camera (openni2[:URI], freenect[:INDEX], v4l2:/dev/videoN or "
                       "auto; aoscan devices lists them)");
+  if (args.progress_every_s) {
+    options.show_progress = false;
+    options.chain.on_progress = progress_lines(*args.progress_every_s);
+  }
+
   std::unique_ptr<Source> source = open_source(args.source);
   if (args.live && !source->live())
     throw usage_error(args.source + ": scan needs a live camera; use replay for recordings");
+  if (args.loop) source = make_loop_source(std::move(source), *args.loop);
   const SessionResult result = run_session(*source, options, stop_requested);
   if (result.exit_code != ExitCode::kOk)
     std::fprintf(stderr, "aoscan: error: %s\n", result.error.c_str());

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,10 @@ struct RunArgs {
   std::vector<std::string> sets;
   bool headless = false;     ///< --headless: no live view
   bool no_progress = false;  ///< --no-progress: no progress line
+  /// --progress-every S: a progress line every S seconds on stderr, one line each (for logs),
+  /// instead of the terminal's progress line.
+  std::optional<double> progress_every_s;
+  std::optional<std::int64_t> loop;  ///< replay --loop N: play the source N times (ping-pong)
   bool live = false;         ///< scan: a live camera is required
 };
 

@@ -236,6 +236,12 @@ int run(int argc, char** argv) {
   replay->add_option("SOURCE", replay_args.source,
                      "TUM-layout folder or synth:NAME[?key=value&...]")->required();
   add_run_options(*replay, replay_args);
+  replay->add_option("--loop", replay_args.loop,
+                     "play the source N times, alternately forward and backward, timestamps "
+                     "continuing (1 to 100000; --frames caps the total)");
+  replay->add_option("--progress-every", replay_args.progress_every_s,
+                     "a progress line every SECONDS on stderr, one line each (for logs)")
+      ->check(CLI::PositiveNumber);
 
   RunArgs scan_args;
   scan_args.source = "auto";

@@ -43,6 +43,14 @@ class Source {
   virtual std::optional<std::size_t> size() const { return std::nullopt; }
   /// True for live cameras: they never wait for the consumer.
   virtual bool live() const { return false; }
+  /// True when seek() works: sources with random access by frame index (recordings, synthetic
+  /// scenes).
+  virtual bool seekable() const { return false; }
+  /// Makes frame `index` (0-based, below size()) the one the next read() delivers. Returns
+  /// internal for a source that is not seekable() or an index past its end.
+  virtual Status seek(std::size_t index) {
+    return Status::internal(name() + ": cannot seek to frame " + std::to_string(index));
+  }
   /// Exact scene geometry in the world frame of the ground-truth poses, when the source knows it.
   virtual const TriangleMesh* scene_mesh() const { return nullptr; }
 

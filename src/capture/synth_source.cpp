@@ -41,6 +41,14 @@ class SynthSource final : public Source {
     return static_cast<std::size_t>(params_.frames);
   }
   const TriangleMesh* scene_mesh() const override { return &mesh_; }
+  bool seekable() const override { return true; }
+  Status seek(std::size_t index) override {
+    if (index >= static_cast<std::size_t>(params_.frames))
+      return Status::internal(spec_ + ": cannot seek to frame " + std::to_string(index) + " of " +
+                              std::to_string(params_.frames));
+    next_ = index;
+    return Status::ok();
+  }
 
  private:
   std::string spec_;

@@ -115,6 +115,14 @@ class TumSource final : public Source {
   std::string calibration_origin() const override { return calibration_origin_; }
   bool calibration_is_default() const override { return calibration_is_default_; }
   std::optional<std::size_t> size() const override { return entries_.size(); }
+  bool seekable() const override { return true; }
+  Status seek(std::size_t index) override {
+    if (index >= entries_.size())
+      return Status::internal(folder_ + ": cannot seek to frame " + std::to_string(index) +
+                              " of " + std::to_string(entries_.size()));
+    next_ = index;
+    return Status::ok();
+  }
 
  private:
   /// Without a size in camera.json, the first frame that decodes sets it; it is kept for read().

@@ -61,6 +61,8 @@ struct Progress {
   std::size_t frames_processed = 0;
   std::optional<std::size_t> frames_expected;  ///< when the source knows its length
   double elapsed_s = 0.0;
+  std::size_t frames_read = 0;     ///< frames the source delivered so far
+  std::size_t frames_dropped = 0;  ///< live drops so far (PipelineCounters::frames_dropped)
 };
 
 /// Frames a live input holds (the capture edge and a takes_newest stage's input; drop-oldest).

@@ -195,7 +195,8 @@ void stage_loop(const ChainStage<Frame>& stage, std::size_t index, FrameQueue<Fr
         std::chrono::duration_cast<std::chrono::nanoseconds>(now - state.start).count());
     if (options.on_progress) {
       options.on_progress(
-          {done, expected, std::chrono::duration<double>(now - state.start).count()});
+          {done, expected, std::chrono::duration<double>(now - state.start).count(),
+           state.frames_read.load(), state.frames_dropped()});
     }
   }
   if (out) out->close();
