@@ -60,6 +60,8 @@ class LoopSource final : public Source {
   std::string name() const override { return inner_->name(); }
   const Intrinsics& intrinsics() const override { return inner_->intrinsics(); }
   double depth_scale() const override { return inner_->depth_scale(); }
+  std::string calibration_origin() const override { return inner_->calibration_origin(); }
+  bool calibration_is_default() const override { return inner_->calibration_is_default(); }
   std::optional<std::size_t> size() const override { return passes_ * n_; }
   const TriangleMesh* scene_mesh() const override { return inner_->scene_mesh(); }
 

@@ -249,8 +249,12 @@ void load_config_file(Config& config, const std::string& path) {
     std::string last_key, repeated;
     const auto watch_keys = [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
       using Event = nlohmann::json::parse_event_t;
+      // Past the deepest key the flattening accepts there is nothing to name: no prefix is
+      // built, so that a deeply nested file costs linear time.
       if (event == Event::object_start)
-        objects.emplace_back(objects.empty() ? "" : objects.back().first + last_key + ".",
+        objects.emplace_back(objects.empty() || objects.size() > kMaxKeyDepth
+                                 ? ""
+                                 : objects.back().first + last_key + ".",
                              std::set<std::string>{});
       if (event == Event::object_end && !objects.empty()) objects.pop_back();
       if (event == Event::key && !objects.empty()) {

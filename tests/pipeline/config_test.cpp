@@ -108,13 +108,6 @@ TEST(Config, BrokenFilesAreUsageErrorsNamingTheFile) {
   }
 }
 
-TEST(Config, KeysGivenTwiceAreUsageErrors) {
-  aoscan::testing::ScratchDir scratch;
-  const auto yaml = write_temp(scratch, "twice.yaml", "ao:\n  radius_m: 0.3\n  radius_m: 0.4\n");
-  const auto mixed = write_temp(scratch, "mixed.yaml", "ao:\n  radius_m: 0.3\nao.radius_m: 0.4\n");
-  const auto json = write_temp(scratch, "twice.json", R"({"ao": {"samples": 8, "samples": 16}})");
-  for (const auto& path : {yaml, mixed, json}) {
-
 // Found by fuzz/config_json_fuzz: a JSON file nested 100000 levels deep overflowed the stack
 // while its keys were flattened. Keys have two parts, so deep nesting is an unknown key.
 TEST(Config, DeeplyNestedFilesAreUsageErrorsNamingTheFile) {
@@ -129,6 +122,57 @@ TEST(Config, DeeplyNestedFilesAreUsageErrorsNamingTheFile) {
   const auto deep_yaml = write_temp(scratch, "deep.yaml", yaml);
   const auto nine = write_temp(scratch, "nine.json", R"({"a":{"a":{"a":{"a":{"a":{"a":{"a":{"a":{"a":1}}}}}}}}})");
   for (const auto& path : {deep_json, deep_yaml, nine}) {
+    try {
+      load_config(path, {});
+      ADD_FAILURE() << path;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ExitCode::kUsage);
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(path + ": unknown configuration key 'a.a.a.a.a.a.a.a...' (nested more "
+                              "than 8 levels", 0),
+                0u)
+          << message;
+    }
+  }
+  // Three levels still reach the key check as before.
+  const auto three = write_temp(scratch, "three.json", R"({"ao": {"radius_m": {"x": 1}}})");
+  try {
+    load_config(three, {});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              three + ": unknown configuration key 'ao.radius_m.x' (aoscan config lists every key)");
+  }
+}
+
+// Found by fuzz/config_fuzz: a YAML key that is a list or a map ("{[a]: 1}") escaped as
+// yaml-cpp's conversion exception instead of a usage error naming the file.
+TEST(Config, YamlKeyThatIsNotAWordIsAUsageErrorNamingTheFile) {
+  aoscan::testing::ScratchDir scratch;
+  const auto list_key = write_temp(scratch, "listkey.yaml", "{[a]: 1}\n");
+  const auto map_key = write_temp(scratch, "mapkey.yaml", "ao:\n  ? {radius_m: 1}\n  : 2\n");
+  try {
+    load_config(list_key, {});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kUsage);
+    EXPECT_EQ(std::string(e.what()), list_key + ": a configuration key must be a word");
+  }
+  try {
+    load_config(map_key, {});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kUsage);
+    EXPECT_EQ(std::string(e.what()), map_key + ": a configuration key must be a word (in ao)");
+  }
+}
+
+TEST(Config, KeysGivenTwiceAreUsageErrors) {
+  aoscan::testing::ScratchDir scratch;
+  const auto yaml = write_temp(scratch, "twice.yaml", "ao:\n  radius_m: 0.3\n  radius_m: 0.4\n");
+  const auto mixed = write_temp(scratch, "mixed.yaml", "ao:\n  radius_m: 0.3\nao.radius_m: 0.4\n");
+  const auto json = write_temp(scratch, "twice.json", R"({"ao": {"samples": 8, "samples": 16}})");
+  for (const auto& path : {yaml, mixed, json}) {
     try {
       load_config(path, {});
       ADD_FAILURE() << path;
@@ -168,45 +212,6 @@ TEST(Config, CostlyValuesAreWarned) {
   grid.ao.grid_resolution = 1024;  // 3.9 mm cells under 7.8 mm voxels
   ASSERT_EQ(costly_config_warnings(grid).size(), 1u);
   EXPECT_NE(costly_config_warnings(grid)[0].find("0.00390625 m"), std::string::npos);
-
-      const std::string message = e.what();
-      EXPECT_EQ(message.rfind(path + ": unknown configuration key 'a.a.a.a.a.a.a.a...' (nested more "
-                              "than 8 levels", 0),
-                0u)
-          << message;
-    }
-  }
-  // Three levels still reach the key check as before.
-  const auto three = write_temp(scratch, "three.json", R"({"ao": {"radius_m": {"x": 1}}})");
-  try {
-    load_config(three, {});
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              three + ": unknown configuration key 'ao.radius_m.x' (aoscan config lists every key)");
-  }
-}
-
-// Found by fuzz/config_fuzz: a YAML key that is a list or a map ("{[a]: 1}") escaped as
-// yaml-cpp's conversion exception instead of a usage error naming the file.
-TEST(Config, YamlKeyThatIsNotAWordIsAUsageErrorNamingTheFile) {
-  aoscan::testing::ScratchDir scratch;
-  const auto list_key = write_temp(scratch, "listkey.yaml", "{[a]: 1}\n");
-  const auto map_key = write_temp(scratch, "mapkey.yaml", "ao:\n  ? {radius_m: 1}\n  : 2\n");
-  try {
-    load_config(list_key, {});
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::kUsage);
-    EXPECT_EQ(std::string(e.what()), list_key + ": a configuration key must be a word");
-  }
-  try {
-    load_config(map_key, {});
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::kUsage);
-    EXPECT_EQ(std::string(e.what()), map_key + ": a configuration key must be a word (in ao)");
-  }
 }
 
 TEST(Config, DumpRoundTrips) {
