@@ -44,15 +44,9 @@ void expect_one_line_error(const CliRun& r, const std::string& needle) {
   EXPECT_NE(last.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
 }
 
-/// Records a small synthetic recording into dir/rec (64x48 keeps it fast).
+/// A small synthetic recording in dir/rec (64x48 keeps it fast).
 fs::path make_recording(const fs::path& dir, int frames = 8) {
-  const fs::path rec = dir / "rec";
-  const CliRun r = run_aoscan(
-      "record " + quote("synth:corner?frames=" + std::to_string(frames) + "&width=64&height=48") +
-          " " + quote(rec.string()),
-      dir);
-  EXPECT_EQ(r.exit_code, 0) << r.err;
-  return rec;
+  return aoscan::testing::record_corner(dir, frames);
 }
 
 void write_png(const fs::path& path, int width, int height, png_uint_32 format) {

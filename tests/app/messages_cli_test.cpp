@@ -29,6 +29,7 @@ using aoscan::testing::quote;
 using aoscan::testing::read_stats;
 using aoscan::testing::read_text;
 using aoscan::testing::run_aoscan;
+using aoscan::testing::set_timestamps;
 
 /// The last line of stderr, which must be the run's one error line.
 std::string error_line(const CliRun& r) {
@@ -39,13 +40,7 @@ std::string error_line(const CliRun& r) {
 
 /// A recording of `frames` frames of the synthetic corner (64 x 48) in dir/rec.
 fs::path make_recording(const fs::path& dir, int frames = 6) {
-  const fs::path rec = dir / "rec";
-  const CliRun r = run_aoscan(
-      "record " + quote("synth:corner?frames=" + std::to_string(frames) + "&width=64&height=48") +
-          " " + quote(rec.string()),
-      dir);
-  EXPECT_EQ(r.exit_code, 0) << r.err;
-  return rec;
+  return aoscan::testing::record_corner(dir, frames);
 }
 
 /// The PNGs of a recording, in order.
@@ -65,20 +60,6 @@ void write_constant_png(const fs::path& path, std::uint16_t value) {
   image.format = PNG_FORMAT_LINEAR_Y;
   const std::vector<std::uint16_t> pixels(64 * 48, value);
   ASSERT_TRUE(png_image_write_to_file(&image, path.c_str(), 0, pixels.data(), 0, nullptr));
-}
-
-/// Rewrites the timestamps of depth.txt, in order.
-void set_timestamps(const fs::path& rec, const std::vector<std::string>& stamps) {
-  std::istringstream in(read_text(rec / "depth.txt"));
-  std::ostringstream out;
-  std::size_t i = 0;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    ASSERT_LT(i, stamps.size());
-    out << stamps[i++] << line.substr(line.find(' ')) << "\n";
-  }
-  ASSERT_EQ(i, stamps.size());
-  std::ofstream(rec / "depth.txt") << out.str();
 }
 
 TEST(CliMessages, RunThatFusedNothingExitsThreeWithTheReason) {

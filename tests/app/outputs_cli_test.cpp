@@ -117,20 +117,8 @@ TEST(CliOutputs, ThirdSignalAbandonsTheOutputsAndSaysWhich) {
 
 /// A three-frame recording whose last frame comes 1e6 s after the others.
 fs::path gap_recording(const fs::path& dir) {
-  const fs::path rec = dir / "rec";
-  const CliRun r = run_aoscan(
-      "record 'synth:corner?frames=3&width=160&height=120' " + quote(rec.string()), dir);
-  EXPECT_EQ(r.exit_code, 0) << r.err;
-  std::istringstream in(read_text(rec / "depth.txt"));
-  std::ostringstream list;
-  const char* stamps[] = {"0.000000", "0.033333", "1000000.000000"};
-  int i = 0;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    list << stamps[i++] << line.substr(line.find(' ')) << "\n";
-  }
-  EXPECT_EQ(i, 3);
-  std::ofstream(rec / "depth.txt") << list.str();
+  const fs::path rec = aoscan::testing::record_corner(dir, 3, 160, 120);
+  aoscan::testing::set_timestamps(rec, {"0.000000", "0.033333", "1000000.000000"});
   return rec;
 }
 

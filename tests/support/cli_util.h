@@ -17,6 +17,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -82,6 +83,35 @@ inline CliRun collect(int exit_code, const fs::path& scratch) {
 inline CliRun run_aoscan(const std::string& args, const fs::path& scratch,
                          const std::string& env = "") {
   return collect(exit_code_of(std::system(aoscan_command(args, scratch, env).c_str())), scratch);
+}
+
+/// Records `frames` frames of `synth:corner` (width x height, `extra` parameters such as
+/// "&noise=kinect") into dir/rec with `aoscan record`; returns dir/rec.
+inline fs::path record_corner(const fs::path& dir, int frames, int width = 64, int height = 48,
+                              const std::string& extra = "") {
+  const fs::path rec = dir / "rec";
+  const CliRun r = run_aoscan("record " +
+                                  quote("synth:corner?frames=" + std::to_string(frames) +
+                                        "&width=" + std::to_string(width) +
+                                        "&height=" + std::to_string(height) + extra) +
+                                  " " + quote(rec.string()),
+                              dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return rec;
+}
+
+/// Rewrites the timestamps of recording `rec`'s depth.txt, one per frame in order.
+inline void set_timestamps(const fs::path& rec, const std::vector<std::string>& stamps) {
+  std::istringstream in(read_text(rec / "depth.txt"));
+  std::ostringstream out;
+  std::size_t i = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    ASSERT_LT(i, stamps.size());
+    out << stamps[i++] << line.substr(line.find(' ')) << "\n";
+  }
+  ASSERT_EQ(i, stamps.size());
+  std::ofstream(rec / "depth.txt") << out.str();
 }
 
 /// aoscan running in the background, for tests that act while it runs. Killed (SIGKILL) and
