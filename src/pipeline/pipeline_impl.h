@@ -71,6 +71,18 @@ class ReplayPacer {
   Clock::time_point start_;
 };
 
+/// Keeps a recording's timestamps increasing: trajectory.txt is keyed by them, and pacing by them
+/// would stall. Camera clocks may wrap, so live sources are not checked.
+class TimestampOrder {
+ public:
+  /// Why `frame` (just read from `source`) repeats or goes back in time, naming the source and
+  /// frame; nullopt when it follows the last frame that did, and then it becomes that frame.
+  std::optional<std::string> out_of_order(const Source& source, const DepthFrame& frame);
+
+ private:
+  std::optional<double> last_s_;
+};
+
 template <typename Frame>
 using FramePtr = std::shared_ptr<Frame>;
 template <typename Frame>
@@ -98,7 +110,7 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
   const ReadPolicy policy{options.strict, kSkipWarning};
   ReplayPacer pacer;
   source.watch_stop(&stop_requested);  // a camera's wait for its next frame ends on a stop
-  std::optional<double> last_timestamp;
+  TimestampOrder order;
   while (!stop_requested.load() && !state.failed()) {
     if (options.max_frames && state.frames_read.load() >= *options.max_frames) break;
     FramePtr<Frame> frame = pool.acquire();
@@ -114,25 +126,15 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
       if (!stopped_by.is_ok()) state.fail(stopped_by);
       break;
     }
-    // A recording's timestamps must increase: trajectory.txt is keyed by them, and pacing by them
-    // would stall. A frame that repeats or goes back in time is dropped and counted (strict: an
-    // error). Camera clocks may wrap, so live sources are not checked.
-    if (!source.live()) {
-      if (last_timestamp && !(frame->raw.timestamp_s > *last_timestamp)) {
-        const std::string what =
-            source.name() + " (frame " + std::to_string(frame->raw.sequence) + "): timestamp " +
-            std::to_string(frame->raw.timestamp_s) + " does not follow " +
-            std::to_string(*last_timestamp);
-        if (options.strict) {
-          state.fail(Status::bad_input(what));
-          break;
-        }
-        if (state.frames_out_of_order++ == 0)
-          spdlog::warn("{}: frame dropped, as is every frame whose timestamp repeats or goes back",
-                       what);
-        continue;
+    if (const std::optional<std::string> why = order.out_of_order(source, frame->raw)) {
+      if (options.strict) {
+        state.fail(Status::bad_input(*why));
+        break;
       }
-      last_timestamp = frame->raw.timestamp_s;
+      if (state.frames_out_of_order++ == 0)
+        spdlog::warn("{}: frame dropped, as is every frame whose timestamp repeats or goes back",
+                     *why);
+      continue;
     }
     frame->stage_ms[0] = ms_since(t0);
     stats.add_ms(frame->stage_ms[0]);

@@ -54,12 +54,7 @@ TEST(LoopCli, PassCountOutsideTheRangeExitsTwoNamingIt) {
 TEST(LoopCli, PingPongReplayReadsEveryPassAndComesBackToTheStart) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("loop");
-  const fs::path rec = dir / "rec";
-  ASSERT_EQ(run_aoscan("record " + quote("synth:corner?frames=20&width=160&height=120") + " " +
-                           quote(rec.string()),
-                       dir)
-                .exit_code,
-            0);
+  const fs::path rec = aoscan::testing::record_corner(dir, 20, 160, 120);
   const fs::path out = dir / "O";
   const CliRun r = run_aoscan(
       "replay " + quote(rec.string()) + " --headless --loop 3 --out " + quote(out.string()), dir);
