@@ -16,21 +16,9 @@
 namespace aoscan {
 namespace {
 
-/// World bounding box of a scan's points.
-Eigen::AlignedBox3f world_box(const RangeMap& map) {
-  Eigen::AlignedBox3f box;
-  const Eigen::Matrix3f R = map.T_world_scanner.rotation().cast<float>();
-  const Eigen::Vector3f t = map.T_world_scanner.translation().cast<float>();
-  for (int y = 0; y < map.points.height(); ++y)
-    for (int x = 0; x < map.points.width(); ++x)
-      if (map.has_point(x, y)) box.extend(R * map.points(x, y) + t);
-  return box;
-}
-
 /// Scan j seen from scan i: the rigid transform of scan i's points into scan j's frame, and
 /// scanner i's position there.
 struct PairFrame {
-  int j = 0;
   Eigen::Matrix3f R;
   Eigen::Vector3f t;
   Eigen::Vector3f scanner_i;
@@ -40,7 +28,6 @@ struct PairFrame {
 struct Sum {
   double ao_w = 0.0;
   double w = 0.0;
-  bool other_scan = false;
 };
 
 /// Adds the N x N samples of scan j around pixel (px, py) to `sum`.
@@ -79,84 +66,117 @@ void check_scan(const ScanAo& s) {
     throw usage_error(s.map.name + ": the scan's maps do not all have its camera's size");
 }
 
+void check_neighbourhood(int n) {
+  if (n < 1 || n > 9 || n % 2 == 0)
+    throw usage_error("multi-scan AO: the neighbourhood must be 1, 3, 5, 7 or 9 (got " +
+                      std::to_string(n) + ")");
+}
+
 }  // namespace
+
+Eigen::AlignedBox3f scan_world_box(const RangeMap& map) {
+  Eigen::AlignedBox3f box;
+  const Eigen::Matrix3f R = map.T_world_scanner.rotation().cast<float>();
+  const Eigen::Vector3f t = map.T_world_scanner.translation().cast<float>();
+  for (int y = 0; y < map.points.height(); ++y)
+    for (int x = 0; x < map.points.width(); ++x)
+      if (map.has_point(x, y)) box.extend(R * map.points(x, y) + t);
+  return box;
+}
+
+bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b, float margin_m) {
+  if (a.isEmpty() || b.isEmpty()) return false;
+  Eigen::AlignedBox3f grown = b;
+  grown.min().array() -= margin_m;
+  grown.max().array() += margin_m;
+  return grown.intersects(a);
+}
+
+MvaoAccumulator::MvaoAccumulator(const ScanAo& scan_i, const MultiScanParams& params)
+    : scan_i_(scan_i), params_(params) {
+  check_neighbourhood(params.neighbourhood);
+  check_scan(scan_i);
+  const std::size_t n = scan_i.map.points.size();
+  ao_w_.assign(n, 0.0);
+  w_.assign(n, 0.0);
+  other_scan_.assign(n, 0);
+}
+
+void MvaoAccumulator::add(const ScanAo& scan_j, bool same_scan) {
+  check_scan(scan_j);
+  const RangeMap& map_i = scan_i_.map;
+  const RangeMap& map_j = scan_j.map;
+  const Pose T_j_i = map_j.T_world_scanner.inverse() * map_i.T_world_scanner;
+  PairFrame f;
+  f.R = T_j_i.rotation().cast<float>();
+  f.t = T_j_i.translation().cast<float>();
+  f.scanner_i = f.t;
+  const int width = map_i.camera.width;
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, map_i.camera.height), [&](const tbb::blocked_range<int>& rows) {
+        for (int y = rows.begin(); y < rows.end(); ++y)
+          for (int x = 0; x < width; ++x) {
+            if (!map_i.has_point(x, y)) continue;
+            const Eigen::Vector3f& p = map_i.points(x, y);
+            const Eigen::Vector3f q = f.R * p + f.t;
+            int px = 0, py = 0;
+            if (!map_j.camera.pixel_of(q, px, py) || !map_j.has_point(px, py)) continue;
+            const Eigen::Vector3f& p_ij = map_j.points(px, py);
+            const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
+            const float t = std::max(rad_i, point_radius(map_j.camera, map_j.camera.depth(p_ij)));
+            if (!((q - p_ij).norm() < 2.0f * t)) continue;
+            if (!((f.scanner_i - p_ij).dot(map_j.normals(px, py)) > 0.0f)) continue;
+            const std::size_t k = static_cast<std::size_t>(y) * width + x;
+            Sum sum{ao_w_[k], w_[k]};
+            add_samples(scan_j, f, px, py, rad_i, params_, sum);
+            if (!same_scan && sum.w > w_[k]) other_scan_[k] = 1;
+            ao_w_[k] = sum.ao_w;
+            w_[k] = sum.w;
+          }
+      });
+}
+
+long long MvaoAccumulator::finish(Image<float>& mvao) const {
+  const RangeMap& map = scan_i_.map;
+  const int width = map.camera.width;
+  mvao.resize(width, map.camera.height, 1.0f);
+  long long shared = 0;
+  for (int y = 0; y < map.camera.height; ++y)
+    for (int x = 0; x < width; ++x) {
+      if (!map.has_point(x, y)) continue;
+      const std::size_t k = static_cast<std::size_t>(y) * width + x;
+      mvao(x, y) = w_[k] > 0.0 ? static_cast<float>(ao_w_[k] / w_[k]) : scan_i_.ssao(x, y);
+      shared += other_scan_[k];
+    }
+  return shared;
+}
 
 MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScanParams& params,
                                std::vector<Image<float>>& mvao) {
-  if (params.neighbourhood < 1 || params.neighbourhood > 9 || params.neighbourhood % 2 == 0)
-    throw usage_error("multi-scan AO: the neighbourhood must be 1, 3, 5, 7 or 9 (got " +
-                      std::to_string(params.neighbourhood) + ")");
+  check_neighbourhood(params.neighbourhood);
   for (const ScanAo& s : scans) check_scan(s);
   MultiScanStats stats;
   const int n = static_cast<int>(scans.size());
   std::vector<Eigen::AlignedBox3f> boxes(n);
   for (int i = 0; i < n; ++i) {
-    boxes[i] = world_box(scans[i].map);
+    boxes[i] = scan_world_box(scans[i].map);
     stats.points += scans[i].map.count_points();
   }
   mvao.resize(n);
-  std::vector<long long> shared(n, 0);
   for (int i = 0; i < n; ++i) {
-    const RangeMap& map_i = scans[i].map;
-    const Pose& T_i = map_i.T_world_scanner;
-    std::vector<PairFrame> frames;
+    MvaoAccumulator accumulator(scans[i], params);
     for (int j = 0; j < n; ++j) {
-      Eigen::AlignedBox3f grown = boxes[j];
-      if (!grown.isEmpty()) {
-        grown.min().array() -= params.pair_margin_m;
-        grown.max().array() += params.pair_margin_m;
-      }
-      if (j != i && (boxes[i].isEmpty() || grown.isEmpty() || !grown.intersects(boxes[i]))) {
+      if (j != i && !scan_boxes_meet(boxes[i], boxes[j], params.pair_margin_m)) {
         ++stats.pairs_skipped;
         continue;
       }
       if (j != i) ++stats.pairs_tested;
-      const Pose T_j_i = scans[j].map.T_world_scanner.inverse() * T_i;
-      PairFrame f;
-      f.j = j;
-      f.R = T_j_i.rotation().cast<float>();
-      f.t = T_j_i.translation().cast<float>();
-      f.scanner_i = f.t;
-      frames.push_back(f);
+      accumulator.add(scans[j], j == i);
     }
-    Image<float>& out = mvao[i];
-    out.resize(map_i.camera.width, map_i.camera.height, 1.0f);
-    std::vector<long long> shared_rows(map_i.camera.height, 0);
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, map_i.camera.height), [&](const tbb::blocked_range<int>& rows) {
-          for (int y = rows.begin(); y < rows.end(); ++y)
-            for (int x = 0; x < map_i.camera.width; ++x) {
-              if (!map_i.has_point(x, y)) {
-                out(x, y) = 1.0f;
-                continue;
-              }
-              const Eigen::Vector3f& p = map_i.points(x, y);
-              const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
-              Sum sum;
-              for (const PairFrame& f : frames) {
-                const ScanAo& scan_j = scans[f.j];
-                const Eigen::Vector3f q = f.R * p + f.t;
-                int px = 0, py = 0;
-                if (!scan_j.map.camera.pixel_of(q, px, py) || !scan_j.map.has_point(px, py))
-                  continue;
-                const Eigen::Vector3f& p_ij = scan_j.map.points(px, py);
-                const float t =
-                    std::max(rad_i, point_radius(scan_j.map.camera, scan_j.map.camera.depth(p_ij)));
-                if (!((q - p_ij).norm() < 2.0f * t)) continue;
-                if (!((f.scanner_i - p_ij).dot(scan_j.map.normals(px, py)) > 0.0f)) continue;
-                const double before = sum.w;
-                add_samples(scan_j, f, px, py, rad_i, params, sum);
-                if (f.j != i && sum.w > before) sum.other_scan = true;
-              }
-              out(x, y) = sum.w > 0.0 ? static_cast<float>(sum.ao_w / sum.w) : scans[i].ssao(x, y);
-              shared_rows[y] += sum.other_scan ? 1 : 0;
-            }
-        });
-    for (long long c : shared_rows) shared[i] += c;
-    stats.points_shared += shared[i];
+    const long long shared = accumulator.finish(mvao[i]);
+    stats.points_shared += shared;
+    if (shared == 0) stats.isolated_scans.push_back(i);
   }
-  for (int i = 0; i < n; ++i)
-    if (shared[i] == 0) stats.isolated_scans.push_back(i);
   return stats;
 }
 

@@ -4,7 +4,11 @@
 /// the scans measured at its place.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "core/image.h"
 #include "geometry/range_map.h"
@@ -41,18 +45,49 @@ struct MultiScanStats {
   std::vector<int> isolated_scans;  ///< scans that share a point with no other scan
 };
 
-/// Eq. 6-9 for every point p_i of every scan i: each scan j (i itself included) whose box meets
-/// scan i's is a candidate; p_i is taken into scan j's frame (T_world_scanner_j^-1
-/// T_world_scanner_i p_i), projected into its map, and the point p_ij measured there joins L_2
-/// when it lies within 2 t of the projected point (t = the larger point radius of the two,
-/// point_radius()) and faces scanner i ((b - p_ij) . n_ij > 0, b = scanner i in scan j's frame).
-/// Each member of L_2 contributes the N x N pixels around it in scan j's map (those with a point
-/// and a normal facing scanner i), each with its SSAO weighted by w = w_d w_n w_b: w_d w_n of
-/// Eq. 10-11 for the sample seen from its own scanner (view_weight()), w_b = min(d_b / (t_p
-/// alpha), 1) of Eq. 12 with alpha = rad(p_i) / rad(sample). MVAO(p_i) is the weighted mean; a
-/// point whose samples all weigh 0 keeps its own SSAO. `mvao[i]` takes scan i's map size; pixels
-/// without a point get 1. Rows run in parallel; the result does not depend on the thread count.
-/// Throws usage_error on a bad neighbourhood or a scan whose images do not match its map.
+/// World bounding box of a scan's points (empty when it has none).
+Eigen::AlignedBox3f scan_world_box(const RangeMap& map);
+
+/// Whether two scans with these world boxes may share a point: the boxes, one grown by
+/// `margin_m`, meet.
+bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b, float margin_m);
+
+/// Eq. 6-9 for the points of one scan i, one candidate scan j at a time, so that a caller can hold
+/// only scan i and the scan j it adds (the out-of-core path): each point p_i is taken into scan
+/// j's frame (T_world_scanner_j^-1 T_world_scanner_i p_i), projected into its map, and the point
+/// p_ij measured there joins L_2 when it lies within 2 t of the projected point (t = the larger
+/// point radius of the two, point_radius()) and faces scanner i ((b - p_ij) . n_ij > 0, b =
+/// scanner i in scan j's frame). Each member of L_2 contributes the N x N pixels around it in
+/// scan j's map (those with a point and a normal facing scanner i), each with its SSAO weighted by
+/// w = w_d w_n w_b: w_d w_n of Eq. 10-11 for the sample seen from its own scanner (view_weight()),
+/// w_b = min(d_b / (t_p alpha), 1) of Eq. 12 with alpha = rad(p_i) / rad(sample). Adding the
+/// candidates in the same order gives the same sums, bit for bit, whatever else is held in
+/// memory. Rows run in parallel; the result does not depend on the thread count.
+class MvaoAccumulator {
+ public:
+  /// Starts scan i (which must outlive the accumulator). Throws usage_error on a bad
+  /// neighbourhood or a scan whose images do not match its map.
+  MvaoAccumulator(const ScanAo& scan_i, const MultiScanParams& params);
+  /// Adds candidate scan j (`same_scan`: j is scan i itself, whose samples do not make a point
+  /// shared). Throws usage_error for a scan whose images do not match its map.
+  void add(const ScanAo& scan_j, bool same_scan);
+  /// MVAO(p_i), the weighted mean of the samples, into `mvao` (scan i's map size; a point whose
+  /// samples all weigh 0 keeps its own SSAO; pixels without a point get 1). Returns the points
+  /// with a sample from another scan.
+  long long finish(Image<float>& mvao) const;
+  /// Bytes held per pixel of scan i (for memory budgets).
+  static constexpr std::size_t kBytesPerPixel = 2 * sizeof(double) + 1;
+
+ private:
+  const ScanAo& scan_i_;
+  MultiScanParams params_;
+  std::vector<double> ao_w_, w_;
+  std::vector<std::uint8_t> other_scan_;
+};
+
+/// Every scan's MVAO with all the scans in memory: for each scan i, MvaoAccumulator over the scans
+/// j (i itself included) whose boxes meet scan i's, in index order. `mvao[i]` takes scan i's map
+/// size. Throws usage_error on a bad neighbourhood or a scan whose images do not match its map.
 MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScanParams& params,
                                std::vector<Image<float>>& mvao);
 

@@ -176,42 +176,6 @@ std::uint64_t min_instance_size(const Element& e, bool ascii) {
   return std::max<std::uint64_t>(n, 1);
 }
 
-/// The body of write_ply(): the header and the binary rows, into `path`.
-void write_ply_data(const std::string& path, const TriangleMesh& mesh, std::size_t n) {
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw_write_failed(path);
-  const std::string header = ply_header(n, mesh.faces.size());
-  bool ok = std::fwrite(header.data(), 1, header.size(), file) == header.size();
-
-  constexpr std::size_t kChunk = 1 << 20;
-  std::vector<unsigned char> buffer;
-  buffer.reserve(kChunk + 64);
-  auto flush = [&] {
-    if (ok && !buffer.empty())
-      ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
-    buffer.clear();
-  };
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3f& v = mesh.vertices[i];
-    const Eigen::Vector3f normal = mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i];
-    const float quality = mesh.quality.empty() ? 1.0f : mesh.quality[i];
-    for (int k = 0; k < 3; ++k) put_f32(buffer, v[k]);
-    for (int k = 0; k < 3; ++k) put_f32(buffer, normal[k]);
-    put_f32(buffer, quality);
-    const unsigned char g = grey(quality);
-    buffer.insert(buffer.end(), {g, g, g});
-    if (buffer.size() >= kChunk) flush();
-  }
-  for (const Eigen::Vector3i& face : mesh.faces) {
-    buffer.push_back(3);
-    for (int k = 0; k < 3; ++k) put_u32(buffer, static_cast<std::uint32_t>(face[k]));
-    if (buffer.size() >= kChunk) flush();
-  }
-  flush();
-  ok = std::ferror(file) == 0 && ok;
-  if (std::fclose(file) != 0 || !ok) throw_write_failed(path);
-}
-
 }  // namespace
 
 std::string ply_header(std::size_t vertex_count, std::size_t face_count) {
@@ -237,6 +201,56 @@ std::string ply_header(std::size_t vertex_count, std::size_t face_count) {
          "end_header\n";
 }
 
+PlyWriter::PlyWriter(const std::string& path, std::size_t vertex_count, std::size_t face_count)
+    : path_(path), vertices_left_(vertex_count), faces_left_(face_count) {
+  file_ = std::fopen(path.c_str(), "wb");
+  if (!file_) throw_write_failed(path);
+  buffer_.reserve(kChunk + 64);
+  const std::string header = ply_header(vertex_count, face_count);
+  buffer_.insert(buffer_.end(), header.begin(), header.end());
+}
+
+PlyWriter::~PlyWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void PlyWriter::vertex(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float quality) {
+  if (vertices_left_ == 0) throw usage_error(path_ + ": more vertices than the header says");
+  --vertices_left_;
+  for (int k = 0; k < 3; ++k) put_f32(buffer_, p[k]);
+  for (int k = 0; k < 3; ++k) put_f32(buffer_, n[k]);
+  put_f32(buffer_, quality);
+  const unsigned char g = grey(quality);
+  buffer_.insert(buffer_.end(), {g, g, g});
+  if (buffer_.size() >= kChunk) flush();
+}
+
+void PlyWriter::face(const Eigen::Vector3i& f) {
+  if (vertices_left_ != 0 || faces_left_ == 0)
+    throw usage_error(path_ + ": a face before the last vertex, or more faces than the header says");
+  --faces_left_;
+  buffer_.push_back(3);
+  for (int k = 0; k < 3; ++k) put_u32(buffer_, static_cast<std::uint32_t>(f[k]));
+  if (buffer_.size() >= kChunk) flush();
+}
+
+void PlyWriter::flush() {
+  if (ok_ && !buffer_.empty())
+    ok_ = std::fwrite(buffer_.data(), 1, buffer_.size(), file_) == buffer_.size();
+  buffer_.clear();
+}
+
+void PlyWriter::finish() {
+  if (vertices_left_ != 0 || faces_left_ != 0)
+    throw usage_error(path_ + ": " + std::to_string(vertices_left_) + " vertices and " +
+                      std::to_string(faces_left_) + " faces fewer than the header says");
+  flush();
+  ok_ = std::ferror(file_) == 0 && ok_;
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!closed || !ok_) throw_write_failed(path_);
+}
+
 void write_ply(const std::string& path, const TriangleMesh& mesh) {
   const std::size_t n = mesh.vertices.size();
   if (!mesh.normals.empty() && mesh.normals.size() != n)
@@ -254,7 +268,13 @@ void write_ply(const std::string& path, const TriangleMesh& mesh) {
                           std::to_string(mesh.faces[f][k]) + " out of range");
 
   write_atomically(path, [&mesh, n](const std::string& partial) {
-    write_ply_data(partial, mesh, n);
+    PlyWriter writer(partial, n, mesh.faces.size());
+    for (std::size_t i = 0; i < n; ++i)
+      writer.vertex(mesh.vertices[i],
+                    mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i],
+                    mesh.quality.empty() ? 1.0f : mesh.quality[i]);
+    for (const Eigen::Vector3i& face : mesh.faces) writer.face(face);
+    writer.finish();
   });
 }
 

@@ -4,7 +4,11 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdio>
 #include <string>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "core/mesh.h"
 
@@ -17,6 +21,9 @@ namespace aoscan {
 ///   property list uchar int vertex_indices / end_header
 std::string ply_header(std::size_t vertex_count, std::size_t face_count);
 
+/// Bytes of one vertex after that header: seven floats and three uchars.
+constexpr std::size_t kPlyVertexBytes = 7 * 4 + 3;
+
 /// Writes `mesh` (metres) as binary little-endian PLY with the header of ply_header(): per vertex
 /// float x y z, float nx ny nz (zeros when the mesh has no normals), float quality (the AO; 1 when
 /// the mesh has none), uchar red = green = blue = round(255 * clamp(quality, 0, 1)); per face a
@@ -24,6 +31,34 @@ std::string ply_header(std::size_t vertex_count, std::size_t face_count);
 /// inconsistent mesh (normals/quality count, face index out of range) and Error (exit code 1) when
 /// the file cannot be written.
 void write_ply(const std::string& path, const TriangleMesh& mesh);
+
+/// Writes a PLY of write_ply()'s layout one vertex (then one face) at a time, for outputs too
+/// large to hold as one TriangleMesh: the counts are fixed up front and finish() checks that
+/// exactly that many were given. Writes `path` itself (wrap it in write_atomically()). Throws
+/// Error (exit code 1) naming the file when it cannot be written, usage_error on a wrong count.
+class PlyWriter {
+ public:
+  PlyWriter(const std::string& path, std::size_t vertex_count, std::size_t face_count);
+  ~PlyWriter();
+  PlyWriter(const PlyWriter&) = delete;
+  PlyWriter& operator=(const PlyWriter&) = delete;
+  /// One vertex: position, normal, quality (grey colour from it).
+  void vertex(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float quality);
+  /// One triangle (after the last vertex).
+  void face(const Eigen::Vector3i& f);
+  /// Flushes and closes the file.
+  void finish();
+
+ private:
+  void flush();
+  static constexpr std::size_t kChunk = 1 << 20;
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  std::vector<unsigned char> buffer_;
+  std::size_t vertices_left_;
+  std::size_t faces_left_;
+  bool ok_ = true;
+};
 
 /// Reads a binary little-endian or ASCII PLY: vertices (x y z; nx ny nz and quality when all
 /// present), faces from the `vertex_indices` (or `vertex_index`) list, polygons fan-triangulated;

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
 
 #include "core/status.h"
 
@@ -72,9 +73,9 @@ Pose registration(const double m[16], const LineReader& reader) {
 
 }  // namespace
 
-std::vector<PtxScan> read_ptx(const std::string& path) {
+std::size_t read_ptx(const std::string& path, const std::function<void(PtxScan&&)>& each) {
   LineReader reader(path);
-  std::vector<PtxScan> scans;
+  std::size_t count = 0;
   std::vector<double> v;
   while (reader.next(v, 1, 1)) {
     PtxScan scan;
@@ -107,9 +108,16 @@ std::vector<PtxScan> read_ptx(const std::string& path) {
       scan.points.emplace_back(static_cast<float>(v[0]), static_cast<float>(v[1]),
                                static_cast<float>(v[2]));
     }
-    scans.push_back(std::move(scan));
+    ++count;
+    each(std::move(scan));
   }
-  if (scans.empty()) throw input_error(path + ": the PTX file holds no scan");
+  if (count == 0) throw input_error(path + ": the PTX file holds no scan");
+  return count;
+}
+
+std::vector<PtxScan> read_ptx(const std::string& path) {
+  std::vector<PtxScan> scans;
+  read_ptx(path, [&scans](PtxScan&& scan) { scans.push_back(std::move(scan)); });
   return scans;
 }
 

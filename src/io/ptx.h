@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -31,5 +32,10 @@ struct PtxScan {
 /// bad header (grid size not positive, a registration that is not a finite rigid transform), a
 /// line that does not parse, or a file that ends inside a scan's grid.
 std::vector<PtxScan> read_ptx(const std::string& path);
+
+/// The same, one scan at a time: `each` takes every scan as soon as it is read (the file's scans
+/// need not fit in memory together). Returns the number of scans. A scan handed over is complete;
+/// an error later in the file throws after it.
+std::size_t read_ptx(const std::string& path, const std::function<void(PtxScan&&)>& each);
 
 }  // namespace aoscan
