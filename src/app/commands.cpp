@@ -99,15 +99,19 @@ ExitCode run_print_config(const RunArgs& args) {
 ExitCode run_scans_command(const ScansArgs& args) {
   if (!args.unsupported.empty())
     throw usage_error("scans: " + args.unsupported.front() +
-                      " is not implemented yet (the scan set is processed in memory, in one "
-                      "process)");
+                      " is not implemented yet");
   ScansOptions options = args.scans;
   options.config = load_config(args.config_file, args.sets);
   std::unique_ptr<tbb::global_control> threads;
   if (args.threads > 0)
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<std::size_t>(args.threads));
+  options.show_progress = !args.no_progress;
   const ScansResult r = run_scans(options);
+  if (!r.failed_outputs.empty()) {
+    std::fprintf(stderr, "aoscan: error: %s\n", one_line(r.failed_outputs.front().second).c_str());
+    return ExitCode::kFailure;
+  }
   std::fprintf(stderr, "aoscan: %zu scans, %lld points, %.1f s: %s/points.ply\n", r.scans.size(),
                r.points, r.wall_s, options.out_dir.c_str());
   return ExitCode::kOk;

@@ -43,6 +43,7 @@ struct ScansArgs {
   std::string config_file;
   std::vector<std::string> sets;
   int threads = 0;  ///< 0: all cores
+  bool no_progress = false;
   /// Options of the contract that this version does not implement yet: refused with a usage
   /// error rather than ignored.
   std::vector<std::string> unsupported;

@@ -208,13 +208,24 @@ void add_scans_options(CLI::App& cmd, ScansArgs& args) {
       ->allow_extra_args(false);
   cmd.add_option("--threads", args.threads, "worker threads (default: all cores)")
       ->check(whole_number(1, kMaxThreads));
+  cmd.add_option("--memory-limit", o.memory_limit,
+                 "peak memory to plan for: scans beyond it wait in the scratch folder (e.g. 2G, "
+                 "512M)")
+      ->transform(CLI::AsSizeValue(false))
+      ->check(CLI::Range(std::uint64_t{1} << 20, std::uint64_t{1} << 50))
+      ->default_str("2G");
+  cmd.add_option("--scratch", o.scratch_dir,
+                 "folder for each scan's maps, SSAO and MVAO between the stages (default: "
+                 "OUT/scratch; removed after a complete run)");
+  cmd.add_flag("--resume", o.resume,
+               "continue an interrupted run: scans and integrations its scratch folder holds are "
+               "not computed again");
+  cmd.add_flag("--keep-scratch", o.keep_scratch, "keep the scratch folder after a complete run");
+  cmd.add_flag("--no-progress", args.no_progress, "no progress lines on stderr");
   // In the contract, not implemented yet: refused with a clear message.
-  for (const char* name : {"--memory-limit", "--resume", "--mesh"}) {
-    CLI::Option* option = std::string(name) == "--memory-limit"
-                              ? cmd.add_option(name, "not implemented yet")
-                              : cmd.add_flag(name, "not implemented yet");
-    option->each([&args, name](const std::string&) { args.unsupported.push_back(name); });
-  }
+  cmd.add_flag("--mesh", "not implemented yet")->each([&args](const std::string&) {
+    args.unsupported.push_back("--mesh");
+  });
 }
 
 int report(ExitCode code, const std::string& message) {

@@ -16,6 +16,13 @@ namespace aoscan {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+/// A name ending in '/' is an output folder (`scans/`), the others output files.
+bool is_folder_name(const std::string& name) { return !name.empty() && name.back() == '/'; }
+
+}  // namespace
+
 void ExportProgress::start(std::vector<std::string> pending) {
   std::lock_guard<std::mutex> lock(mutex_);
   started_ = true;
@@ -66,7 +73,7 @@ std::vector<std::string> OutputFolder::prepare(const std::vector<std::string>& n
   for (const std::string& name : names) {
     const fs::file_status status = fs::symlink_status(path(name), ec);
     if (!fs::exists(status)) continue;
-    if (fs::is_regular_file(status)) {
+    if (is_folder_name(name) ? fs::is_directory(status) : fs::is_regular_file(status)) {
       earlier.push_back(name);
     } else if (std::find(writes.begin(), writes.end(), name) != writes.end()) {
       throw usage_error("--out " + dir_ + ": cannot write " + path(name) +
@@ -83,7 +90,7 @@ std::vector<std::string> OutputFolder::prepare(const std::vector<std::string>& n
   const fs::path previous = fs::path(dir_) / "previous";
   fs::create_directories(previous, ec);
   if (ec) throw usage_error("--out " + dir_ + ": cannot create " + previous.string() + ": " + ec.message());
-  for (const std::string& name : names) fs::remove(previous / name, ec);  // an older run's
+  for (const std::string& name : names) fs::remove_all(previous / name, ec);  // an older run's
   std::string list;
   for (const std::string& name : earlier) {
     fs::rename(path(name), previous / name, ec);

@@ -49,7 +49,8 @@ class OutputFolder {
 
   /// Before the run: creates the folder, checks that a file can be created in it (usage_error,
   /// exit 2, naming the folder), and moves the files of an earlier run that it holds — regular
-  /// files named in `names` and any unfinished `*.partial` — into `previous/` inside it
+  /// files named in `names` (a name ending in '/' names a folder of outputs, moved whole) and any
+  /// unfinished `*.partial` — into `previous/` inside it
   /// (replacing what an older run left there), so that the folder only ever holds this run's
   /// outputs. Something other than a file (a folder) under a name in `writes`, the files this run
   /// will write, is a usage error; under other names it is left alone. Returns the names moved.

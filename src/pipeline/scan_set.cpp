@@ -2,11 +2,17 @@
 /// @brief `aoscan scans`: loading scan sets, per-scan SSAO, multi-view integration, outputs.
 #include "pipeline/scan_set.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
+#include <optional>
+#include <set>
 
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
@@ -22,7 +28,10 @@
 #include "io/ply.h"
 #include "io/ptx.h"
 #include "io/scan_manifest.h"
+#include "io/atomic_write.h"
 #include "io/tum.h"
+#include "pipeline/output_folder.h"
+#include "pipeline/scan_store.h"
 #include "pipeline/session.h"
 
 namespace aoscan {
@@ -39,6 +48,41 @@ double seconds_since(Clock::time_point t) {
 constexpr double kPoseMatchS = 0.02;
 /// border_distance(): a Laplacian edge must exceed this share of the pixel's depth.
 constexpr float kMinEdgeRatio = 0.01f;
+
+/// What a finished input unit holds: its scans (numbered on from the units before it) and the
+/// frames it skipped; unit-N.json in the scratch folder.
+struct UnitRecord {
+  long long scans = 0;
+  long long frames_without_pose = 0;
+  long long frames_corrupt = 0;
+};
+
+void write_unit_record(const std::string& path, const UnitRecord& r) {
+  const nlohmann::json j = {{"scans", r.scans},
+                            {"frames_without_pose", r.frames_without_pose},
+                            {"frames_corrupt", r.frames_corrupt}};
+  write_atomically(path, [&j](const std::string& partial) {
+    std::ofstream out(partial);
+    out << j.dump() << "\n";
+    if (!out.flush()) throw_write_failed(partial);
+  });
+}
+
+/// False when the record is missing or unreadable (the unit is then read again).
+bool read_unit_record(const std::string& path, UnitRecord& r) {
+  std::ifstream in(path);
+  if (!in) return false;
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (!j.is_object()) return false;
+  try {
+    r.scans = j.at("scans").get<long long>();
+    r.frames_without_pose = j.at("frames_without_pose").get<long long>();
+    r.frames_corrupt = j.at("frames_corrupt").get<long long>();
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+  return r.scans >= 0;
+}
 
 /// A pinhole range map of a raw depth frame: metres, range-clipped and border outliers removed
 /// as the real-time path does.
@@ -82,28 +126,42 @@ void load_manifest_scan(const ScanEntry& e, const Config& config, ScanAo& scan,
   map.T_world_scanner = e.T_world_scan * Pose(Eigen::Matrix3d::Identity(), e.scanner);
 }
 
-/// Every scan of a PTX file, named by the file's stem (and its index when there are several).
-void load_ptx(const std::string& path, std::vector<ScanAo>& scans,
-              std::vector<ScanSummary>& summaries) {
-  std::vector<PtxScan> ptx = read_ptx(path);
+/// A freshly loaded scan, handed to the first stage with where it came from.
+using ScanSink = std::function<void(ScanAo& scan, ScanSummary& summary)>;
+
+/// Every scan of a PTX file, one at a time, named by the file's stem, with its number when the
+/// file holds more than one: a scan is handed on once the next one (or the end of the file) shows
+/// which, so at most two are held at once.
+void load_ptx(const std::string& path, const ScanSink& sink) {
   const std::string stem = fs::path(path).stem().string();
-  for (std::size_t k = 0; k < ptx.size(); ++k) {
-    scans.emplace_back();
-    summaries.emplace_back();
-    RangeMap& map = scans.back().map;
-    map.name = ptx.size() == 1 ? stem : stem + "-" + std::to_string(k + 1);
-    summaries.back().source = path;
-    if (ptx[k].points.empty())
-      throw input_error(path + ": scan " + std::to_string(k + 1) + " has no point");
-    cloud_scan(ptx[k].points, {}, map, summaries.back());
-    map.T_world_scanner = ptx[k].T_world_scanner;
-  }
+  // A scan is handed on when the next one (or the end of the file) shows whether the file holds
+  // more than one, which its name depends on; so at most two scans are held at once.
+  std::optional<PtxScan> pending;
+  int number = 0;
+  auto hand_on = [&](PtxScan& ptx, bool alone) {
+    ++number;
+    ScanAo scan;
+    ScanSummary summary;
+    scan.map.name = alone ? stem : stem + "-" + std::to_string(number);
+    summary.source = path;
+    if (ptx.points.empty())
+      throw input_error(path + ": scan " + std::to_string(number) + " has no point");
+    cloud_scan(ptx.points, {}, scan.map, summary);
+    scan.map.T_world_scanner = ptx.T_world_scanner;
+    ptx = PtxScan();
+    sink(scan, summary);
+  };
+  read_ptx(path, [&](PtxScan&& ptx) {
+    if (pending) hand_on(*pending, false);
+    pending = std::move(ptx);
+  });
+  if (pending) hand_on(*pending, number == 0);
 }
 
 /// Every `every`-th frame of a recording folder, posed by `poses_path` or the folder's own
 /// trajectory.
-void load_recording(const std::string& folder, const ScansOptions& options,
-                    std::vector<ScanAo>& scans, ScansResult& result) {
+void load_recording(const std::string& folder, const ScansOptions& options, UnitRecord& unit,
+                    const ScanSink& sink) {
   std::string poses_path = options.poses;
   if (poses_path.empty()) {
     for (const char* name : {"trajectory.txt", "groundtruth.txt"})
@@ -125,14 +183,14 @@ void load_recording(const std::string& folder, const ScansOptions& options,
     if (status.code() == Status::Code::kEndOfStream) break;
     if (status.code() == Status::Code::kCorruptFrame) {
       spdlog::warn("skipping corrupt frame: {}", status.message());
-      ++result.frames_corrupt;
+      ++unit.frames_corrupt;
       continue;
     }
     if (!status.is_ok()) throw input_error(status.message());
     if (index % options.every != 0) continue;
     const std::optional<Pose> pose = associate(poses, frame.timestamp_s, kPoseMatchS);
     if (!pose) {
-      ++result.frames_without_pose;
+      ++unit.frames_without_pose;
       continue;
     }
     ScanAo scan;
@@ -141,8 +199,7 @@ void load_recording(const std::string& folder, const ScansOptions& options,
     scan.map.T_world_scanner = *pose;
     ScanSummary summary;
     summary.source = frame.origin;
-    scans.push_back(std::move(scan));
-    result.scans.push_back(summary);
+    sink(scan, summary);
   }
 }
 
@@ -153,9 +210,229 @@ bool is_manifest(const std::string& path) {
   return ext == ".json" || ext == ".yaml" || ext == ".yml";
 }
 
+/// One input unit of the first stage: a manifest or MeshLab project entry (one scan), a PTX file
+/// (its scans) or a recording folder (its every K-th frames). A finished unit is recorded in the
+/// scratch folder, so that a resumed run skips it without reading it.
+struct Unit {
+  enum class Kind { kEntry, kPtx, kRecording };
+  Kind kind = Kind::kEntry;
+  ScanEntry entry;
+  std::string path;  ///< the PTX file or recording folder (the entry's file for kEntry)
+};
+
+/// The units of the inputs, in order; manifests and projects are read (and checked) here.
+std::vector<Unit> plan_units(const ScansOptions& options) {
+  std::vector<Unit> units;
+  for (const std::string& input : options.inputs) {
+    if (is_manifest(input) || extension(input) == ".mlp") {
+      const std::vector<ScanEntry> entries =
+          is_manifest(input) ? read_scan_manifest(input) : read_meshlab_project(input);
+      for (const ScanEntry& e : entries) units.push_back({Unit::Kind::kEntry, e, e.path});
+    } else if (extension(input) == ".ptx") {
+      units.push_back({Unit::Kind::kPtx, {}, input});
+    } else if (fs::is_directory(input)) {
+      units.push_back({Unit::Kind::kRecording, {}, input});
+    } else if (!fs::exists(input)) {
+      throw input_error(input + ": no such file or folder");
+    } else {
+      throw input_error(input + ": not a scan manifest (.json, .yaml), a MeshLab project (.mlp), "
+                                "a PTX file (.ptx) or a recording folder");
+    }
+  }
+  return units;
+}
+
+/// A file's identity for the resume check: its absolute path, size and modification time.
+nlohmann::json file_identity(const std::string& path) {
+  std::error_code ec;
+  nlohmann::json j = {{"path", fs::absolute(path, ec).lexically_normal().string()}};
+  const std::uintmax_t bytes = fs::file_size(path, ec);
+  if (!ec) j["bytes"] = bytes;
+  const auto mtime = fs::last_write_time(path, ec);
+  if (!ec) j["mtime"] = mtime.time_since_epoch().count();
+  return j;
+}
+
+/// Resident memory of the process now (bytes; 0 where /proc is missing).
+std::uint64_t resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t pages = 0, resident = 0;
+  if (!(statm >> pages >> resident)) return 0;
+  return resident * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE));
+}
+
+std::string mib(std::uint64_t bytes) {
+  return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB";
+}
+
+/// Memory the first stage takes per pixel of a scan's map beyond the map itself: the SSAO and its
+/// unsmoothed copy, and the border distance's depth, Laplacian, seeds and two jump-flooding
+/// buffers (measured peak, rounded up).
+constexpr std::uint64_t kStageOneBytesPerPixel = 72;
+/// Held beside the budgeted scans: thread stacks, allocator slack, output buffers.
+constexpr std::uint64_t kSlackBytes = 64ull << 20;
+
+/// The memory limit less what the process held before the run and some slack: the bytes the
+/// stages plan with.
+class MemoryPlan {
+ public:
+  explicit MemoryPlan(std::uint64_t limit)
+      : limit_(limit), resident_(resident_bytes()), base_(resident_ + kSlackBytes) {}
+  std::uint64_t budget() const { return limit_ > base_ ? limit_ - base_ : 0; }
+  /// What the process held before the run (bytes).
+  std::uint64_t resident_before() const { return resident_; }
+  /// Throws usage_error when `bytes` (for `what`) do not fit the budget.
+  void require(std::uint64_t bytes, const std::string& what) const {
+    if (bytes > budget())
+      throw usage_error("--memory-limit " + mib(limit_) + " is too small for " + what +
+                        ": give at least " + mib(base_ + bytes));
+  }
+
+ private:
+  std::uint64_t limit_;
+  std::uint64_t resident_;
+  std::uint64_t base_;
+};
+
+/// The scratch folder: scan-N.bin (a scan after the first stage), mvao-N.bin (its MVAO),
+/// unit-N.json (a finished input unit) and run.json (what the files were computed from).
+class Scratch {
+ public:
+  Scratch(const ScansOptions& options, const std::vector<Unit>& units)
+      : dir_(options.scratch_dir.empty() ? (fs::path(options.out_dir) / "scratch").string()
+                                         : options.scratch_dir) {
+    nlohmann::json inputs = nlohmann::json::array();
+    for (const Unit& u : units) {
+      nlohmann::json j = file_identity(u.path);
+      if (u.kind == Unit::Kind::kEntry) {
+        j["name"] = u.entry.name;
+        j["scanner"] = {u.entry.scanner.x(), u.entry.scanner.y(), u.entry.scanner.z()};
+        const Eigen::Matrix4d m = u.entry.T_world_scan.matrix();
+        j["pose"] = std::vector<double>(m.data(), m.data() + 16);
+        j["camera"] = {u.entry.intrinsics.fx, u.entry.intrinsics.fy, u.entry.intrinsics.cx,
+                       u.entry.intrinsics.cy, u.entry.depth_scale};
+      }
+      if (u.kind == Unit::Kind::kRecording) {
+        j["every"] = options.every;
+        j["poses"] = options.poses.empty() ? nlohmann::json(nullptr) : file_identity(options.poses);
+      }
+      inputs.push_back(j);
+    }
+    key_ = {{"format", 1},
+            {"scans", {{"inputs", inputs}, {"config", dump_config(options.config)}}},
+            {"integration", {{"neighbourhood", options.neighbourhood}}}};
+  }
+
+  const std::string& dir() const { return dir_; }
+  std::string scan_file(long long g) const { return numbered("scan-", g, ".bin"); }
+  std::string mvao_file(long long g) const { return numbered("mvao-", g, ".bin"); }
+  std::string unit_file(std::size_t u) const {
+    return numbered("unit-", static_cast<long long>(u), ".json");
+  }
+
+  /// Makes the folder ready. Resuming: checks that run.json describes these inputs and settings
+  /// (usage_error naming what changed otherwise) and drops the MVAO files of another
+  /// neighbourhood. Not resuming: removes what an earlier run left (with a warning).
+  void open(bool resume) {
+    require_writable_folder(dir_, "--scratch " + dir_);
+    const fs::path run = fs::path(dir_) / "run.json";
+    nlohmann::json earlier;
+    if (fs::exists(run)) {
+      std::ifstream in(run);
+      earlier = nlohmann::json::parse(in, nullptr, false);
+    }
+    if (resume && earlier.is_object()) {
+      if (earlier.value("format", 0) != key_["format"] || earlier["scans"] != key_["scans"]) {
+        std::string what = "other inputs or settings";
+        if (earlier.value("format", 0) == key_["format"] && earlier["scans"].is_object()) {
+          const bool inputs = earlier["scans"]["inputs"] != key_["scans"]["inputs"];
+          const bool config = earlier["scans"]["config"] != key_["scans"]["config"];
+          if (inputs || config)
+            what = inputs && config ? "other inputs and another configuration"
+                   : inputs         ? "other inputs"
+                                    : "another configuration";
+        }
+        throw usage_error("--resume: " + dir_ + " holds a run with " + what +
+                          "; run without --resume to start over");
+      }
+      if (earlier["integration"] != key_["integration"]) {
+        spdlog::info("--resume: the neighbourhood changed: integrating every scan again");
+        remove_files("mvao-");
+      }
+    } else {
+      if (resume) spdlog::warn("--resume: {} holds no earlier run: starting from the beginning", dir_);
+      if (!resume && earlier.is_object())
+        spdlog::warn("{} holds an unfinished earlier run: starting over (give --resume to continue "
+                     "it)",
+                     dir_);
+      remove_files("");
+    }
+    write_atomically(run.string(), [this](const std::string& partial) {
+      std::ofstream out(partial);
+      out << key_.dump(2) << "\n";
+      if (!out.flush()) throw_write_failed(partial);
+    });
+  }
+
+  /// Removes the run's files and the folder when that leaves it empty.
+  void remove() {
+    remove_files("");
+    std::error_code ec;
+    fs::remove(dir_, ec);  // only when empty
+  }
+
+ private:
+  std::string numbered(const char* prefix, long long n, const char* suffix) const {
+    char digits[32];
+    std::snprintf(digits, sizeof digits, "%06lld", n);
+    return (fs::path(dir_) / (prefix + std::string(digits) + suffix)).string();
+  }
+  /// Removes the scratch files whose names begin with `prefix` ("": every kind), nothing else.
+  void remove_files(const std::string& prefix) {
+    std::error_code ec;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir_, ec)) {
+      const std::string name = e.path().filename().string();
+      const bool ours = name == "run.json" || name.rfind("scan-", 0) == 0 ||
+                        name.rfind("mvao-", 0) == 0 || name.rfind("unit-", 0) == 0;
+      if (ours && name.rfind(prefix, 0) == 0 && e.is_regular_file(ec)) fs::remove(e.path(), ec);
+    }
+  }
+
+  std::string dir_;
+  nlohmann::json key_;
+};
+
+/// A progress line on stderr every few seconds during a long stage, with the time left.
+class StageProgress {
+ public:
+  StageProgress(bool enabled, std::string stage, std::string unit, long long total)
+      : enabled_(enabled), stage_(std::move(stage)), unit_(std::move(unit)), total_(total) {}
+  void done(long long n) {
+    done_ = n;
+    if (!enabled_ || seconds_since(last_) < kEveryS) return;
+    last_ = Clock::now();
+    const double elapsed = seconds_since(start_);
+    const double left = done_ > 0 ? elapsed * static_cast<double>(total_ - done_) / done_ : 0.0;
+    std::fprintf(stderr, "aoscan: %s: %lld of %lld %s, %.0f s so far, about %.0f s left\n",
+                 stage_.c_str(), done_, total_, unit_.c_str(), elapsed, left);
+  }
+
+ private:
+  static constexpr double kEveryS = 5.0;
+  bool enabled_;
+  std::string stage_, unit_;
+  long long total_;
+  long long done_ = 0;
+  Clock::time_point start_ = Clock::now();
+  Clock::time_point last_ = Clock::now();
+};
+
 /// The points of scan `s` in the world frame with `ao` as their quality.
-TriangleMesh world_points(const ScanAo& s, const Image<float>& ao) {
+TriangleMesh world_points(const ScanAo& s, const Image<float>& ao, long long points) {
   TriangleMesh out;
+  out.vertices.reserve(static_cast<std::size_t>(points));
+  out.normals.reserve(static_cast<std::size_t>(points));
+  out.quality.reserve(static_cast<std::size_t>(points));
   const RangeMap& map = s.map;
   const Eigen::Matrix3f R = map.T_world_scanner.rotation().cast<float>();
   const Eigen::Vector3f t = map.T_world_scanner.translation().cast<float>();
@@ -169,12 +446,41 @@ TriangleMesh world_points(const ScanAo& s, const Image<float>& ao) {
   return out;
 }
 
-void write_stats(const std::string& path, const ScansResult& r, const ScansOptions& options) {
+/// points.ply: the vertices of every scans/<name>.ply, in scan order, under one header.
+void join_scan_files(const std::string& path, const std::vector<std::string>& files,
+                     const std::vector<long long>& counts) {
+  long long total = 0;
+  for (long long n : counts) total += n;
+  std::ofstream out(path, std::ios::binary);
+  const std::string header = ply_header(static_cast<std::size_t>(total), 0);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  std::vector<char> buffer(1 << 20);
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    std::ifstream in(files[i], std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(ply_header(static_cast<std::size_t>(counts[i]), 0).size()));
+    std::uint64_t left = static_cast<std::uint64_t>(counts[i]) * kPlyVertexBytes;
+    while (left > 0 && in) {
+      const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(left, buffer.size()));
+      in.read(buffer.data(), static_cast<std::streamsize>(n));
+      out.write(buffer.data(), in.gcount());
+      left -= static_cast<std::uint64_t>(in.gcount());
+    }
+    if (left != 0 || in.peek() != std::char_traits<char>::eof())
+      throw Error(ExitCode::kFailure, files[i] + ": changed while points.ply was being written");
+  }
+  if (!out.flush()) throw_write_failed(path);
+}
+
+void write_stats(const std::string& path, const ScansResult& r, const ScansOptions& options,
+                 const OutputFolder& folder, const std::string& scratch) {
   nlohmann::json j;
+  j["status"] = r.failed_outputs.empty() ? "complete" : "failed";
   j["scans"] = r.scans.size();
   j["points"] = r.points;
   j["wall_s"] = r.wall_s;
   j["peak_rss_mb"] = peak_rss_mb();
+  j["memory_limit_mb"] = static_cast<double>(options.memory_limit) / (1 << 20);
+  j["memory_before_mb"] = r.memory_before_mb;
   j["neighbourhood"] = options.neighbourhood;
   j["quality"] = options.ssao_only ? "ssao" : "mvao";
   j["frames_without_pose"] = r.frames_without_pose;
@@ -184,6 +490,10 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
   j["points_shared"] = r.points_shared;
   j["isolated_scans"] = r.isolated_scans;
   j["d_max_m"] = r.d_max_m;
+  j["scans_resumed"] = r.scans_resumed;
+  j["integrations_resumed"] = r.integrations_resumed;
+  j["scan_loads"] = r.scan_loads;
+  j["scratch"] = scratch;
   j["stages_s"] = {
       {"load", r.load_s}, {"ssao", r.ssao_s}, {"integrate", r.integrate_s}, {"write", r.write_s}};
   nlohmann::json per_scan = nlohmann::json::array();
@@ -195,9 +505,214 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
                         {"points", s.points},
                         {"points_skipped", s.skipped}});
   j["per_scan"] = per_scan;
-  std::ofstream out(path);
-  out << j.dump(2) << "\n";
-  if (!out.flush()) throw Error(ExitCode::kFailure, path + ": cannot write");
+  j["files"] = folder.files_json();
+  j["failed_outputs"] = folder.failures_json();
+  write_atomically(path, [&j](const std::string& partial) {
+    std::ofstream out(partial);
+    out << j.dump(2) << "\n";
+    if (!out.flush()) throw_write_failed(partial);
+  });
+}
+
+/// The first stage: every unit's scans loaded, their normals, SSAO and border distances computed
+/// and written to the scratch folder, one scan in memory at a time. Fills `infos` and the result's
+/// per-scan summaries and counts.
+void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
+                 const Scratch& scratch, const MemoryPlan& plan, ScanCache& cache,
+                 std::vector<ScanInfo>& infos, ScansResult& result) {
+  const Clock::time_point start = Clock::now();
+  double compute_s = 0.0;
+  std::set<std::string> names;
+  std::uint64_t largest_need = 0;
+  StageProgress progress(options.show_progress, "SSAO", "inputs", static_cast<long long>(units.size()));
+  auto add_info = [&](const ScanInfo& info) {
+    if (!names.insert(info.name).second)
+      throw input_error(info.source + ": a second scan named " + info.name);
+    infos.push_back(info);
+  };
+  for (std::size_t u = 0; u < units.size(); ++u) {
+    const Unit& unit = units[u];
+    const long long first = static_cast<long long>(infos.size());
+    UnitRecord record;
+    if (options.resume && read_unit_record(scratch.unit_file(u), record)) {
+      std::vector<ScanInfo> done;
+      try {
+        for (long long k = 0; k < record.scans; ++k) done.push_back(read_scan_info(scratch.scan_file(first + k)));
+      } catch (const Error& e) {
+        spdlog::warn("--resume: {}: reading the input again", one_line(e.what()));
+        done.clear();
+      }
+      if (static_cast<long long>(done.size()) == record.scans) {
+        for (const ScanInfo& info : done) add_info(info);
+        result.scans_resumed += record.scans;
+        result.frames_without_pose += record.frames_without_pose;
+        result.frames_corrupt += record.frames_corrupt;
+        progress.done(static_cast<long long>(u + 1));
+        continue;
+      }
+      record = UnitRecord();
+    }
+    // Room for reading the unit's next scan as for the largest one so far (its own need is known
+    // only once it is read; the scans of a set are mostly alike).
+    cache.trim(plan.budget() - std::min(plan.budget(), largest_need));
+    const ScanSink sink = [&](ScanAo& scan, ScanSummary& summary) {
+      const long long g = first + record.scans++;
+      const std::string file = scratch.scan_file(g);
+      if (options.resume && fs::exists(file)) {
+        try {
+          const ScanInfo info = read_scan_info(file);
+          if (info.name == scan.map.name && info.source == summary.source) {
+            add_info(info);
+            ++result.scans_resumed;
+            return;
+          }
+        } catch (const Error& e) {
+          spdlog::warn("--resume: {}: computing the scan again", one_line(e.what()));
+        }
+      }
+      if (names.count(scan.map.name))
+        throw input_error(summary.source + ": a second scan named " + scan.map.name);
+      if (scan.map.count_points() == 0)
+        throw input_error(summary.source + ": scan " + scan.map.name + " has no valid point");
+      const std::uint64_t need = static_cast<std::uint64_t>(scan.map.points.size()) *
+                                 (ScanInfo::kLoadedBytesPerPixel + kStageOneBytesPerPixel);
+      plan.require(need, "scan " + scan.map.name + " (a " + std::to_string(scan.map.camera.width) +
+                             " x " + std::to_string(scan.map.camera.height) + " map)");
+      cache.trim(plan.budget() - need);
+      largest_need = std::max(largest_need, need);
+      const Clock::time_point compute_start = Clock::now();
+      RangeMap& map = scan.map;
+      compute_range_map_normals(map);
+      compute_scan_ssao(map, options.config.ao, static_cast<std::uint64_t>(g), scan.ssao);
+      border_distance(map, kMinEdgeRatio, scan.border_px);
+      const ScanInfo info = describe_scan(scan, summary.source, summary.skipped);
+      write_scan_file(file, info, scan);
+      compute_s += seconds_since(compute_start);
+      add_info(info);
+      cache.put(static_cast<int>(g), std::make_shared<const ScanAo>(std::move(scan)),
+                info.loaded_bytes());
+    };
+    switch (unit.kind) {
+      case Unit::Kind::kEntry: {
+        ScanAo scan;
+        ScanSummary summary;
+        load_manifest_scan(unit.entry, options.config, scan, summary);
+        sink(scan, summary);
+        break;
+      }
+      case Unit::Kind::kPtx:
+        load_ptx(unit.path, sink);
+        break;
+      case Unit::Kind::kRecording:
+        load_recording(unit.path, options, record, sink);
+        break;
+    }
+    result.frames_without_pose += record.frames_without_pose;
+    result.frames_corrupt += record.frames_corrupt;
+    write_unit_record(scratch.unit_file(u), record);
+    progress.done(static_cast<long long>(u + 1));
+  }
+  if (infos.empty()) throw input_error("scans: the inputs hold no scan");
+  result.ssao_s = compute_s;
+  result.load_s = seconds_since(start) - compute_s;
+}
+
+/// The second stage: each scan's MVAO from the scans whose boxes meet its own, read back from
+/// the scratch folder within the memory budget; written there as mvao-N.bin.
+void second_stage(const ScansOptions& options, const std::vector<ScanInfo>& infos,
+                  const Scratch& scratch, const MemoryPlan& plan, ScanCache& cache,
+                  ScansResult& result) {
+  MultiScanParams params;
+  params.d_min_m = static_cast<float>(options.config.ao.d_min_m);
+  params.d_max_m = std::max(static_cast<float>(result.d_max_m), params.d_min_m + 1e-3f);
+  params.neighbourhood = options.neighbourhood;
+  const int n = static_cast<int>(infos.size());
+
+  // The accumulator and MVAO image of the largest scan, and the two largest scans at once, must
+  // fit; the rest of the budget holds loaded scans.
+  std::size_t largest = 0, second = 0, largest_pixels = 0;
+  std::string largest_name;
+  for (const ScanInfo& info : infos) {
+    const std::size_t b = info.loaded_bytes();
+    if (b > largest) {
+      second = largest;
+      largest = b;
+      largest_name = info.name;
+    } else {
+      second = std::max(second, b);
+    }
+    largest_pixels = std::max(largest_pixels, info.pixels());
+  }
+  const std::uint64_t fixed = largest_pixels * (MvaoAccumulator::kBytesPerPixel + sizeof(float));
+  plan.require(fixed + largest + second, "integrating scan " + largest_name + " with another");
+  cache.set_budget(plan.budget() - fixed);
+
+  StageProgress progress(options.show_progress, "MVAO", "points", result.points);
+  long long points_done = 0;
+  for (int i = 0; i < n; ++i) {
+    std::vector<int> candidates;
+    for (int j = 0; j < n; ++j) {
+      if (j != i && !scan_boxes_meet(infos[i].world_box, infos[j].world_box, params.pair_margin_m)) {
+        ++result.pairs_skipped;
+        continue;
+      }
+      if (j != i) ++result.pairs_tested;
+      candidates.push_back(j);
+    }
+    long long shared = 0;
+    const std::string file = scratch.mvao_file(i);
+    const std::optional<long long> earlier =
+        options.resume ? mvao_file_shared(file, infos[i].points) : std::nullopt;
+    if (earlier) {
+      shared = *earlier;
+      ++result.integrations_resumed;
+    } else {
+      const std::shared_ptr<const ScanAo> scan_i = cache.get(i, infos[i].loaded_bytes());
+      MvaoAccumulator accumulator(*scan_i, params);
+      for (int j : candidates)
+        accumulator.add(j == i ? *scan_i : *cache.get(j, infos[j].loaded_bytes()), j == i);
+      Image<float> mvao;
+      shared = accumulator.finish(mvao);
+      write_mvao_file(file, scan_i->map, mvao, shared);
+    }
+    result.points_shared += shared;
+    if (shared == 0 && n > 1) result.isolated_scans.push_back(infos[i].name);
+    points_done += infos[i].points;
+    progress.done(points_done);
+  }
+  result.scan_loads = cache.loads();
+}
+
+/// The outputs: scans/<name>.ply from each scan's scratch files, then points.ply joining them.
+void write_outputs(const ScansOptions& options, const std::vector<ScanInfo>& infos,
+                   const Scratch& scratch, ScanCache& cache, OutputFolder& folder) {
+  std::error_code ec;
+  fs::create_directories(fs::path(folder.dir()) / "scans", ec);
+  std::vector<std::string> files;
+  std::vector<long long> counts;
+  std::string missing;
+  StageProgress progress(options.show_progress, "writing", "scans", static_cast<long long>(infos.size()));
+  for (std::size_t i = 0; i < infos.size(); ++i) {
+    const std::string name = "scans/" + infos[i].name + ".ply";
+    const bool ok = folder.write(name, [&](const std::string& path) {
+      const std::shared_ptr<const ScanAo> scan =
+          cache.get(static_cast<int>(i), infos[i].loaded_bytes());
+      Image<float> mvao;
+      if (!options.ssao_only)
+        read_mvao_file(scratch.mvao_file(static_cast<long long>(i)), scan->map, mvao);
+      write_ply(path, world_points(*scan, options.ssao_only ? scan->ssao : mvao, infos[i].points));
+    });
+    if (!ok && missing.empty()) missing = name;
+    files.push_back(folder.path(name));
+    counts.push_back(infos[i].points);
+    progress.done(static_cast<long long>(i + 1));
+  }
+  folder.write("points.ply", [&](const std::string& path) {
+    if (!missing.empty())
+      throw Error(ExitCode::kFailure, path + ": not written: it joins the scans' files, and " +
+                                          missing + " could not be written");
+    write_atomically(path, [&](const std::string& partial) { join_scan_files(partial, files, counts); });
+  });
 }
 
 }  // namespace
@@ -207,89 +722,53 @@ ScansResult run_scans(const ScansOptions& options) {
   if (options.inputs.empty()) throw usage_error("scans: give at least one INPUT");
   if (options.every < 1) throw usage_error("scans: --every must be at least 1");
   ScansResult result;
-  std::vector<ScanAo> scans;
-  for (const std::string& input : options.inputs) {
-    if (is_manifest(input) || extension(input) == ".mlp") {
-      const std::vector<ScanEntry> entries =
-          is_manifest(input) ? read_scan_manifest(input) : read_meshlab_project(input);
-      for (const ScanEntry& e : entries) {
-        scans.emplace_back();
-        result.scans.emplace_back();
-        load_manifest_scan(e, options.config, scans.back(), result.scans.back());
-      }
-    } else if (extension(input) == ".ptx") {
-      load_ptx(input, scans, result.scans);
-    } else if (fs::is_directory(input)) {
-      load_recording(input, options, scans, result);
-    } else if (!fs::exists(input)) {
-      throw input_error(input + ": no such file or folder");
-    } else {
-      throw input_error(input + ": not a scan manifest (.json, .yaml), a MeshLab project (.mlp), "
-                                "a PTX file (.ptx) or a recording folder");
-    }
-  }
-  if (scans.empty()) throw input_error("scans: the inputs hold no scan");
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    for (std::size_t k = 0; k < i; ++k)
-      if (scans[k].map.name == scans[i].map.name)
-        throw input_error(result.scans[i].source + ": a second scan named " + scans[i].map.name);
-    ScanSummary& s = result.scans[i];
-    s.name = scans[i].map.name;
-    s.width = scans[i].map.camera.width;
-    s.height = scans[i].map.camera.height;
-    s.points = scans[i].map.count_points();
-    if (s.points == 0) throw input_error(s.source + ": scan " + s.name + " has no valid point");
-    result.points += s.points;
-  }
-  result.load_s = seconds_since(start);
+  // Inputs and the scratch folder first: a refused --resume leaves the earlier outputs in place.
+  const std::vector<Unit> units = plan_units(options);
+  Scratch scratch(options, units);
+  scratch.open(options.resume);
+  OutputFolder folder(options.out_dir, nullptr);
+  folder.prepare({"points.ply", "stats.json", "scans/"}, {"points.ply", "stats.json"});
 
-  const Clock::time_point ssao_start = Clock::now();
-  float d_max = 0.0f;
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    RangeMap& map = scans[i].map;
-    compute_range_map_normals(map);
-    compute_scan_ssao(map, options.config.ao, i, scans[i].ssao);
-    border_distance(map, kMinEdgeRatio, scans[i].border_px);
-    for (int y = 0; y < map.camera.height; ++y)
-      for (int x = 0; x < map.camera.width; ++x)
-        if (map.has_point(x, y)) d_max = std::max(d_max, map.camera.depth(map.points(x, y)));
+  const MemoryPlan plan(options.memory_limit);
+  result.memory_before_mb = static_cast<double>(plan.resident_before()) / (1 << 20);
+  ScanCache cache(plan.budget(), [&scratch](int g, ScanAo& scan) {
+    read_scan_file(scratch.scan_file(g), scan);
+  });
+  std::vector<ScanInfo> infos;
+  first_stage(options, units, scratch, plan, cache, infos, result);
+  for (const ScanInfo& info : infos) {
+    ScanSummary s;
+    s.name = info.name;
+    s.source = info.source;
+    s.width = info.camera.width;
+    s.height = info.camera.height;
+    s.points = info.points;
+    s.skipped = info.skipped;
+    result.scans.push_back(s);
+    result.points += info.points;
+    result.d_max_m = std::max(result.d_max_m, static_cast<double>(info.max_depth_m));
   }
-  result.ssao_s = seconds_since(ssao_start);
-  result.d_max_m = d_max;
 
   const Clock::time_point integrate_start = Clock::now();
-  std::vector<Image<float>> mvao;
-  if (!options.ssao_only) {
-    MultiScanParams params;
-    params.d_min_m = static_cast<float>(options.config.ao.d_min_m);
-    params.d_max_m = std::max(d_max, params.d_min_m + 1e-3f);
-    params.neighbourhood = options.neighbourhood;
-    const MultiScanStats stats = integrate_scans(scans, params, mvao);
-    result.pairs_tested = stats.pairs_tested;
-    result.pairs_skipped = stats.pairs_skipped;
-    result.points_shared = stats.points_shared;
-    if (scans.size() > 1)
-      for (int i : stats.isolated_scans) result.isolated_scans.push_back(scans[i].map.name);
-  }
+  if (!options.ssao_only) second_stage(options, infos, scratch, plan, cache, result);
   result.integrate_s = seconds_since(integrate_start);
 
   const Clock::time_point write_start = Clock::now();
-  const fs::path out(options.out_dir);
-  fs::create_directories(out / "scans");
-  TriangleMesh all;
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    const TriangleMesh points = world_points(scans[i], options.ssao_only ? scans[i].ssao : mvao[i]);
-    write_ply((out / "scans" / (scans[i].map.name + ".ply")).string(), points);
-    all.vertices.insert(all.vertices.end(), points.vertices.begin(), points.vertices.end());
-    all.normals.insert(all.normals.end(), points.normals.begin(), points.normals.end());
-    all.quality.insert(all.quality.end(), points.quality.begin(), points.quality.end());
-  }
-  write_ply((out / "points.ply").string(), all);
+  write_outputs(options, infos, scratch, cache, folder);
   for (const std::string& name : result.isolated_scans)
     spdlog::warn("scan {} overlaps no other scan: its points keep their own SSAO", name);
   result.write_s = seconds_since(write_start);
   result.wall_s = seconds_since(start);
-  write_stats((out / "stats.json").string(), result, options);
+  const nlohmann::json failures = folder.failures_json();
+  for (const auto& [name, error] : failures.items())
+    result.failed_outputs.emplace_back(name, error.get<std::string>());
+  folder.write("stats.json", [&](const std::string& path) {
+    write_stats(path, result, options, folder, scratch.dir());
+  });
+  const nlohmann::json after = folder.failures_json();
+  if (after.contains("stats.json"))
+    result.failed_outputs.emplace_back("stats.json", after["stats.json"].get<std::string>());
+  if (result.failed_outputs.empty() && !options.keep_scratch) scratch.remove();
   return result;
 }
 

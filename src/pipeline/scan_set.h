@@ -4,7 +4,9 @@
 /// integrate them (Eq. 6-12), and write every scan's points with their AO.
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline/config.h"
@@ -26,6 +28,18 @@ struct ScansOptions {
   int neighbourhood = 1;   ///< N of the N x N samples (1, 3, 5, 7, 9)
   bool ssao_only = false;  ///< write each scan's own SSAO instead of the MVAO
   Config config;           ///< the ao.* keys (and preprocess.* for depth images)
+  /// The peak memory the run plans for (bytes): scans beyond it stay in their scratch files.
+  std::uint64_t memory_limit = kDefaultMemoryLimit;
+  static constexpr std::uint64_t kDefaultMemoryLimit = 2ull << 30;
+  /// Where each scan's maps, SSAO and MVAO wait between the stages; empty: `out_dir/scratch`.
+  std::string scratch_dir;
+  /// Continue the run whose scratch folder this is: scans and integrations already done there
+  /// (with the same inputs and settings) are not computed again.
+  bool resume = false;
+  /// Keep the scratch folder after a complete run (it is removed otherwise).
+  bool keep_scratch = false;
+  /// Print a progress line with the time left every few seconds.
+  bool show_progress = true;
 };
 
 /// One scan of the set, as loaded.
@@ -49,15 +63,29 @@ struct ScansResult {
   long long points_shared = 0;
   std::vector<std::string> isolated_scans;  ///< scans that overlap no other scan
   double d_max_m = 0.0;                     ///< Eq. 10's d_max: the largest depth of the scans
+  long long scans_resumed = 0;        ///< scans whose SSAO an earlier run had computed (--resume)
+  long long integrations_resumed = 0;  ///< scans whose MVAO an earlier run had computed
+  long long scan_loads = 0;  ///< scans read back from the scratch folder (beyond the budget)
+  double memory_before_mb = 0.0;  ///< resident memory before the run, outside the budget
+  /// load: reading the inputs; ssao: normals, SSAO and border distances (with load, per scan,
+  /// the first stage); integrate: the MVAO; write: the outputs.
   double load_s = 0.0, ssao_s = 0.0, integrate_s = 0.0, write_s = 0.0, wall_s = 0.0;
+  /// The outputs that could not be written (file name, one-line error); the run's exit code is
+  /// then 1.
+  std::vector<std::pair<std::string, std::string>> failed_outputs;
 };
 
-/// Runs the whole job: loads every input, writes `out_dir/scans/<name>.ply` for each scan and
-/// `out_dir/points.ply` (all scans' points in the world frame of the poses, normals, quality =
-/// MVAO or, with ssao_only, the scan's own SSAO; binary little-endian PLY as mesh.ply, without
-/// faces), then `out_dir/stats.json`. Eq. 10's d_min is ao.d_min_m and its d_max the largest depth
-/// in the scans (the paper's advice). Throws Error: usage_error for bad options, input_error
-/// naming the file (and frame) for bad input data, with nothing written.
+/// Runs the whole job, out of core: every input is read one scan at a time, and each scan's
+/// normals, SSAO and border distance go to its file in the scratch folder (pipeline/scan_store.h);
+/// the integration then takes scan after scan with the scans it overlaps, read back within
+/// `memory_limit`, and writes each scan's MVAO there too. Then `out_dir/scans/<name>.ply` for each
+/// scan and `out_dir/points.ply` (all scans' points in the world frame of the poses, normals,
+/// quality = MVAO or, with ssao_only, the scan's own SSAO; binary little-endian PLY as mesh.ply,
+/// without faces), each written atomically, then `out_dir/stats.json`. Eq. 10's d_min is
+/// ao.d_min_m and its d_max the largest depth in the scans (the paper's advice). The outputs do
+/// not depend on the memory limit, the thread count or on resuming. Throws Error: usage_error for
+/// bad options (a memory limit too small for the largest scans), input_error naming the file (and
+/// frame) for bad input data, with no output written.
 ScansResult run_scans(const ScansOptions& options);
 
 }  // namespace aoscan
