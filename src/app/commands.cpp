@@ -4,9 +4,11 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <functional>
 #include <memory>
+#include <thread>
 
 #include <tbb/global_control.h>
 
@@ -18,6 +20,7 @@
 #include "core/log.h"
 #include "pipeline/config.h"
 #include "pipeline/live_recorder.h"
+#include "pipeline/ranks.h"
 
 namespace aoscan {
 namespace {
@@ -98,16 +101,30 @@ ExitCode run_print_config(const RunArgs& args) {
 
 ExitCode run_scans_command(const ScansArgs& args) {
   if (!args.unsupported.empty())
-    throw usage_error("scans: " + args.unsupported.front() +
-                      " is not implemented yet");
+    throw usage_error("scans: " + args.unsupported.front() + " is not implemented yet");
   ScansOptions options = args.scans;
   options.config = load_config(args.config_file, args.sets);
-  std::unique_ptr<tbb::global_control> threads;
-  if (args.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(args.threads));
   options.show_progress = !args.no_progress;
-  const ScansResult r = run_scans(options);
+  const std::unique_ptr<Ranks> ranks = open_ranks();
+  // Ranks on one machine share its cores unless told otherwise.
+  int threads = args.threads;
+  if (threads == 0 && ranks->local_size() > 1)
+    threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / ranks->local_size());
+  std::unique_ptr<tbb::global_control> control;
+  if (threads > 0)
+    control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(threads));
+  ScansResult r;
+  try {
+    r = run_scans(options, *ranks);
+  } catch (const Error& e) {
+    if (ranks->size() == 1) throw;
+    // The other ranks may wait for this one: say why here, then end them all.
+    std::fprintf(stderr, "aoscan: error: %s (rank %d of %d)\n", one_line(e.what()).c_str(),
+                 ranks->rank(), ranks->size());
+    ranks->abort(static_cast<int>(e.code()));
+  }
+  if (ranks->rank() != 0) return ExitCode::kOk;
   if (!r.failed_outputs.empty()) {
     std::fprintf(stderr, "aoscan: error: %s\n", one_line(r.failed_outputs.front().second).c_str());
     return ExitCode::kFailure;

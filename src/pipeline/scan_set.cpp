@@ -31,6 +31,7 @@
 #include "io/atomic_write.h"
 #include "io/tum.h"
 #include "pipeline/output_folder.h"
+#include "pipeline/ranks.h"
 #include "pipeline/scan_store.h"
 #include "pipeline/session.h"
 
@@ -220,6 +221,28 @@ struct Unit {
   std::string path;  ///< the PTX file or recording folder (the entry's file for kEntry)
 };
 
+/// A scan's place among the inputs: its unit and its number there (known as it is read, before
+/// the scans of earlier units are counted, so that ranks can name it independently).
+struct ScanId {
+  std::size_t unit = 0;
+  long long k = 0;
+  std::uint64_t key() const { return (static_cast<std::uint64_t>(unit) << 32) | static_cast<std::uint64_t>(k); }
+};
+
+/// The rank that computes scan k of unit u: each unit's scans dealt out in turn, each unit
+/// starting one rank further, so that a manifest of one-scan entries spreads evenly too.
+int owner(const ScanId& id, int ranks) {
+  return static_cast<int>((id.unit + static_cast<std::uint64_t>(id.k)) % static_cast<std::uint64_t>(ranks));
+}
+
+/// The SSAO sample pattern of a scan: keyed by its name (unique in a set), so that a scan's SSAO
+/// does not depend on where it stands among the inputs or on which rank computes it (FNV-1a).
+std::uint64_t pattern_index(const std::string& name) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (const unsigned char c : name) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
 /// The units of the inputs, in order; manifests and projects are read (and checked) here.
 std::vector<Unit> plan_units(const ScansOptions& options) {
   std::vector<Unit> units;
@@ -294,8 +317,9 @@ class MemoryPlan {
   std::uint64_t base_;
 };
 
-/// The scratch folder: scan-N.bin (a scan after the first stage), mvao-N.bin (its MVAO),
-/// unit-N.json (a finished input unit) and run.json (what the files were computed from).
+/// The scratch folder: scan-U-K.bin (scan K of input unit U after the first stage), mvao-U-K.bin
+/// (its MVAO), unit-U.json (a finished input unit) and run.json (what the files were computed
+/// from).
 class Scratch {
  public:
   Scratch(const ScansOptions& options, const std::vector<Unit>& units)
@@ -324,10 +348,10 @@ class Scratch {
   }
 
   const std::string& dir() const { return dir_; }
-  std::string scan_file(long long g) const { return numbered("scan-", g, ".bin"); }
-  std::string mvao_file(long long g) const { return numbered("mvao-", g, ".bin"); }
+  std::string scan_file(const ScanId& id) const { return numbered("scan-", id, ".bin"); }
+  std::string mvao_file(const ScanId& id) const { return numbered("mvao-", id, ".bin"); }
   std::string unit_file(std::size_t u) const {
-    return numbered("unit-", static_cast<long long>(u), ".json");
+    return (fs::path(dir_) / ("unit-" + digits(static_cast<long long>(u)) + ".json")).string();
   }
 
   /// Makes the folder ready. Resuming: checks that run.json describes these inputs and settings
@@ -382,10 +406,15 @@ class Scratch {
   }
 
  private:
-  std::string numbered(const char* prefix, long long n, const char* suffix) const {
-    char digits[32];
-    std::snprintf(digits, sizeof digits, "%06lld", n);
-    return (fs::path(dir_) / (prefix + std::string(digits) + suffix)).string();
+  static std::string digits(long long n) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%06lld", n);
+    return text;
+  }
+  std::string numbered(const char* prefix, const ScanId& id, const char* suffix) const {
+    return (fs::path(dir_) / (prefix + digits(static_cast<long long>(id.unit)) + "-" +
+                              digits(id.k) + suffix))
+        .string();
   }
   /// Removes the scratch files whose names begin with `prefix` ("": every kind), nothing else.
   void remove_files(const std::string& prefix) {
@@ -472,13 +501,14 @@ void join_scan_files(const std::string& path, const std::vector<std::string>& fi
 }
 
 void write_stats(const std::string& path, const ScansResult& r, const ScansOptions& options,
-                 const OutputFolder& folder, const std::string& scratch) {
+                 const OutputFolder& folder, const std::string& scratch, int ranks) {
   nlohmann::json j;
   j["status"] = r.failed_outputs.empty() ? "complete" : "failed";
   j["scans"] = r.scans.size();
   j["points"] = r.points;
   j["wall_s"] = r.wall_s;
   j["peak_rss_mb"] = peak_rss_mb();
+  j["ranks"] = ranks;
   j["memory_limit_mb"] = static_cast<double>(options.memory_limit) / (1 << 20);
   j["memory_before_mb"] = r.memory_before_mb;
   j["neighbourhood"] = options.neighbourhood;
@@ -514,41 +544,36 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
   });
 }
 
-/// The first stage: every unit's scans loaded, their normals, SSAO and border distances computed
-/// and written to the scratch folder, one scan in memory at a time. Fills `infos` and the result's
-/// per-scan summaries and counts.
+/// The first stage, this rank's share: every unit's scans loaded, their normals, SSAO and border
+/// distances computed and written to the scratch folder, one scan in memory at a time. A unit of
+/// one scan is read only by the rank that computes it; a PTX file or a recording by every rank
+/// with a scan in it. The rank of the unit's first scan writes the unit's record.
 void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
-                 const Scratch& scratch, const MemoryPlan& plan, ScanCache& cache,
-                 std::vector<ScanInfo>& infos, ScansResult& result) {
+                 const Scratch& scratch, const MemoryPlan& plan, ScanCache& cache, Ranks& ranks,
+                 ScansResult& result) {
   const Clock::time_point start = Clock::now();
   double compute_s = 0.0;
-  std::set<std::string> names;
+  std::set<std::string> names;  // this rank's: gather_scans() checks them all
   std::uint64_t largest_need = 0;
-  StageProgress progress(options.show_progress, "SSAO", "inputs", static_cast<long long>(units.size()));
-  auto add_info = [&](const ScanInfo& info) {
-    if (!names.insert(info.name).second)
-      throw input_error(info.source + ": a second scan named " + info.name);
-    infos.push_back(info);
-  };
+  StageProgress progress(options.show_progress && ranks.rank() == 0, "SSAO", "inputs",
+                         static_cast<long long>(units.size()));
   for (std::size_t u = 0; u < units.size(); ++u) {
     const Unit& unit = units[u];
-    const long long first = static_cast<long long>(infos.size());
+    if (unit.kind == Unit::Kind::kEntry && owner({u, 0}, ranks.size()) != ranks.rank()) continue;
     UnitRecord record;
     if (options.resume && read_unit_record(scratch.unit_file(u), record)) {
-      std::vector<ScanInfo> done;
+      long long mine = 0;
       try {
-        for (long long k = 0; k < record.scans; ++k) done.push_back(read_scan_info(scratch.scan_file(first + k)));
-      } catch (const Error& e) {
-        spdlog::warn("--resume: {}: reading the input again", one_line(e.what()));
-        done.clear();
-      }
-      if (static_cast<long long>(done.size()) == record.scans) {
-        for (const ScanInfo& info : done) add_info(info);
-        result.scans_resumed += record.scans;
-        result.frames_without_pose += record.frames_without_pose;
-        result.frames_corrupt += record.frames_corrupt;
+        for (long long k = 0; k < record.scans; ++k)
+          if (owner({u, k}, ranks.size()) == ranks.rank()) {
+            names.insert(read_scan_info(scratch.scan_file({u, k})).name);
+            ++mine;
+          }
+        result.scans_resumed += mine;
         progress.done(static_cast<long long>(u + 1));
         continue;
+      } catch (const Error& e) {
+        spdlog::warn("--resume: {}: reading the input again", one_line(e.what()));
       }
       record = UnitRecord();
     }
@@ -556,13 +581,15 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
     // only once it is read; the scans of a set are mostly alike).
     cache.trim(plan.budget() - std::min(plan.budget(), largest_need));
     const ScanSink sink = [&](ScanAo& scan, ScanSummary& summary) {
-      const long long g = first + record.scans++;
-      const std::string file = scratch.scan_file(g);
+      const ScanId id{u, record.scans++};
+      if (owner(id, ranks.size()) != ranks.rank()) return;
+      if (!names.insert(scan.map.name).second)
+        throw input_error(summary.source + ": a second scan named " + scan.map.name);
+      const std::string file = scratch.scan_file(id);
       if (options.resume && fs::exists(file)) {
         try {
           const ScanInfo info = read_scan_info(file);
           if (info.name == scan.map.name && info.source == summary.source) {
-            add_info(info);
             ++result.scans_resumed;
             return;
           }
@@ -570,8 +597,6 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
           spdlog::warn("--resume: {}: computing the scan again", one_line(e.what()));
         }
       }
-      if (names.count(scan.map.name))
-        throw input_error(summary.source + ": a second scan named " + scan.map.name);
       if (scan.map.count_points() == 0)
         throw input_error(summary.source + ": scan " + scan.map.name + " has no valid point");
       const std::uint64_t need = static_cast<std::uint64_t>(scan.map.points.size()) *
@@ -583,14 +608,12 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
       const Clock::time_point compute_start = Clock::now();
       RangeMap& map = scan.map;
       compute_range_map_normals(map);
-      compute_scan_ssao(map, options.config.ao, static_cast<std::uint64_t>(g), scan.ssao);
+      compute_scan_ssao(map, options.config.ao, pattern_index(map.name), scan.ssao);
       border_distance(map, kMinEdgeRatio, scan.border_px);
       const ScanInfo info = describe_scan(scan, summary.source, summary.skipped);
       write_scan_file(file, info, scan);
       compute_s += seconds_since(compute_start);
-      add_info(info);
-      cache.put(static_cast<int>(g), std::make_shared<const ScanAo>(std::move(scan)),
-                info.loaded_bytes());
+      cache.put(id.key(), std::make_shared<const ScanAo>(std::move(scan)), info.loaded_bytes());
     };
     switch (unit.kind) {
       case Unit::Kind::kEntry: {
@@ -607,21 +630,42 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
         load_recording(unit.path, options, record, sink);
         break;
     }
-    result.frames_without_pose += record.frames_without_pose;
-    result.frames_corrupt += record.frames_corrupt;
-    write_unit_record(scratch.unit_file(u), record);
+    if (owner({u, 0}, ranks.size()) == ranks.rank())  // one writer (each rank has read it)
+      write_unit_record(scratch.unit_file(u), record);
     progress.done(static_cast<long long>(u + 1));
   }
-  if (infos.empty()) throw input_error("scans: the inputs hold no scan");
   result.ssao_s = compute_s;
   result.load_s = seconds_since(start) - compute_s;
 }
 
+/// After every rank's first stage: all the scans, in the order of the inputs, from the units'
+/// records and the scans' files; the frames the units skipped. Throws input_error on two scans of
+/// one name or a set without a scan.
+void gather_scans(const std::vector<Unit>& units, const Scratch& scratch, std::vector<ScanId>& ids,
+                  std::vector<ScanInfo>& infos, ScansResult& result) {
+  std::set<std::string> names;
+  for (std::size_t u = 0; u < units.size(); ++u) {
+    UnitRecord record;
+    if (!read_unit_record(scratch.unit_file(u), record))
+      throw Error(ExitCode::kFailure, scratch.unit_file(u) + ": missing after the first stage");
+    result.frames_without_pose += record.frames_without_pose;
+    result.frames_corrupt += record.frames_corrupt;
+    for (long long k = 0; k < record.scans; ++k) {
+      ScanInfo info = read_scan_info(scratch.scan_file({u, k}));
+      if (!names.insert(info.name).second)
+        throw input_error(info.source + ": a second scan named " + info.name);
+      ids.push_back({u, k});
+      infos.push_back(std::move(info));
+    }
+  }
+  if (infos.empty()) throw input_error("scans: the inputs hold no scan");
+}
+
 /// The second stage: each scan's MVAO from the scans whose boxes meet its own, read back from
 /// the scratch folder within the memory budget; written there as mvao-N.bin.
-void second_stage(const ScansOptions& options, const std::vector<ScanInfo>& infos,
-                  const Scratch& scratch, const MemoryPlan& plan, ScanCache& cache,
-                  ScansResult& result) {
+void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
+                  const std::vector<ScanInfo>& infos, const Scratch& scratch,
+                  const MemoryPlan& plan, ScanCache& cache, Ranks& ranks, ScansResult& result) {
   MultiScanParams params;
   params.d_min_m = static_cast<float>(options.config.ao.d_min_m);
   params.d_max_m = std::max(static_cast<float>(result.d_max_m), params.d_min_m + 1e-3f);
@@ -647,7 +691,8 @@ void second_stage(const ScansOptions& options, const std::vector<ScanInfo>& info
   plan.require(fixed + largest + second, "integrating scan " + largest_name + " with another");
   cache.set_budget(plan.budget() - fixed);
 
-  StageProgress progress(options.show_progress, "MVAO", "points", result.points);
+  StageProgress progress(options.show_progress && ranks.rank() == 0, "MVAO", "points",
+                         result.points);
   long long points_done = 0;
   for (int i = 0; i < n; ++i) {
     std::vector<int> candidates;
@@ -659,33 +704,40 @@ void second_stage(const ScansOptions& options, const std::vector<ScanInfo>& info
       if (j != i) ++result.pairs_tested;
       candidates.push_back(j);
     }
-    long long shared = 0;
-    const std::string file = scratch.mvao_file(i);
-    const std::optional<long long> earlier =
-        options.resume ? mvao_file_shared(file, infos[i].points) : std::nullopt;
-    if (earlier) {
-      shared = *earlier;
-      ++result.integrations_resumed;
-    } else {
-      const std::shared_ptr<const ScanAo> scan_i = cache.get(i, infos[i].loaded_bytes());
-      MvaoAccumulator accumulator(*scan_i, params);
-      for (int j : candidates)
-        accumulator.add(j == i ? *scan_i : *cache.get(j, infos[j].loaded_bytes()), j == i);
-      Image<float> mvao;
-      shared = accumulator.finish(mvao);
-      write_mvao_file(file, scan_i->map, mvao, shared);
+    const std::string file = scratch.mvao_file(ids[i]);
+    if (i % ranks.size() == ranks.rank()) {
+      if (options.resume && mvao_file_shared(file, infos[i].points)) {
+        ++result.integrations_resumed;
+      } else {
+        const std::shared_ptr<const ScanAo> scan_i = cache.get(ids[i].key(), infos[i].loaded_bytes());
+        MvaoAccumulator accumulator(*scan_i, params);
+        for (int j : candidates)
+          accumulator.add(j == i ? *scan_i : *cache.get(ids[j].key(), infos[j].loaded_bytes()),
+                          j == i);
+        Image<float> mvao;
+        const long long shared = accumulator.finish(mvao);
+        write_mvao_file(file, scan_i->map, mvao, shared);
+      }
     }
-    result.points_shared += shared;
-    if (shared == 0 && n > 1) result.isolated_scans.push_back(infos[i].name);
     points_done += infos[i].points;
     progress.done(points_done);
   }
   result.scan_loads = cache.loads();
+  ranks.barrier();
+  // Every rank's MVAO files are complete: how many points each scan shares.
+  for (int i = 0; i < n; ++i) {
+    const std::optional<long long> shared = mvao_file_shared(scratch.mvao_file(ids[i]), infos[i].points);
+    if (!shared)
+      throw Error(ExitCode::kFailure, scratch.mvao_file(ids[i]) + ": missing or damaged after the integration");
+    result.points_shared += *shared;
+    if (*shared == 0 && n > 1) result.isolated_scans.push_back(infos[i].name);
+  }
 }
 
 /// The outputs: scans/<name>.ply from each scan's scratch files, then points.ply joining them.
-void write_outputs(const ScansOptions& options, const std::vector<ScanInfo>& infos,
-                   const Scratch& scratch, ScanCache& cache, OutputFolder& folder) {
+void write_outputs(const ScansOptions& options, const std::vector<ScanId>& ids,
+                   const std::vector<ScanInfo>& infos, const Scratch& scratch, ScanCache& cache,
+                   OutputFolder& folder) {
   std::error_code ec;
   fs::create_directories(fs::path(folder.dir()) / "scans", ec);
   std::vector<std::string> files;
@@ -695,11 +747,9 @@ void write_outputs(const ScansOptions& options, const std::vector<ScanInfo>& inf
   for (std::size_t i = 0; i < infos.size(); ++i) {
     const std::string name = "scans/" + infos[i].name + ".ply";
     const bool ok = folder.write(name, [&](const std::string& path) {
-      const std::shared_ptr<const ScanAo> scan =
-          cache.get(static_cast<int>(i), infos[i].loaded_bytes());
+      const std::shared_ptr<const ScanAo> scan = cache.get(ids[i].key(), infos[i].loaded_bytes());
       Image<float> mvao;
-      if (!options.ssao_only)
-        read_mvao_file(scratch.mvao_file(static_cast<long long>(i)), scan->map, mvao);
+      if (!options.ssao_only) read_mvao_file(scratch.mvao_file(ids[i]), scan->map, mvao);
       write_ply(path, world_points(*scan, options.ssao_only ? scan->ssao : mvao, infos[i].points));
     });
     if (!ok && missing.empty()) missing = name;
@@ -717,25 +767,36 @@ void write_outputs(const ScansOptions& options, const std::vector<ScanInfo>& inf
 
 }  // namespace
 
-ScansResult run_scans(const ScansOptions& options) {
+ScansResult run_scans(const ScansOptions& options) { return run_scans(options, *single_process()); }
+
+ScansResult run_scans(const ScansOptions& options, Ranks& ranks) {
   const Clock::time_point start = Clock::now();
   if (options.inputs.empty()) throw usage_error("scans: give at least one INPUT");
   if (options.every < 1) throw usage_error("scans: --every must be at least 1");
+  const bool lead = ranks.rank() == 0;
   ScansResult result;
   // Inputs and the scratch folder first: a refused --resume leaves the earlier outputs in place.
   const std::vector<Unit> units = plan_units(options);
   Scratch scratch(options, units);
-  scratch.open(options.resume);
   OutputFolder folder(options.out_dir, nullptr);
-  folder.prepare({"points.ply", "stats.json", "scans/"}, {"points.ply", "stats.json"});
+  if (lead) {
+    scratch.open(options.resume);
+    folder.prepare({"points.ply", "stats.json", "scans/"}, {"points.ply", "stats.json"});
+  }
+  ranks.barrier();
 
   const MemoryPlan plan(options.memory_limit);
   result.memory_before_mb = static_cast<double>(plan.resident_before()) / (1 << 20);
-  ScanCache cache(plan.budget(), [&scratch](int g, ScanAo& scan) {
-    read_scan_file(scratch.scan_file(g), scan);
+  ScanCache cache(plan.budget(), [&scratch](std::uint64_t key, ScanAo& scan) {
+    read_scan_file(scratch.scan_file({static_cast<std::size_t>(key >> 32),
+                                      static_cast<long long>(key & 0xffffffffu)}),
+                   scan);
   });
+  first_stage(options, units, scratch, plan, cache, ranks, result);
+  ranks.barrier();
+  std::vector<ScanId> ids;
   std::vector<ScanInfo> infos;
-  first_stage(options, units, scratch, plan, cache, infos, result);
+  gather_scans(units, scratch, ids, infos, result);
   for (const ScanInfo& info : infos) {
     ScanSummary s;
     s.name = info.name;
@@ -750,11 +811,15 @@ ScansResult run_scans(const ScansOptions& options) {
   }
 
   const Clock::time_point integrate_start = Clock::now();
-  if (!options.ssao_only) second_stage(options, infos, scratch, plan, cache, result);
+  if (!options.ssao_only) second_stage(options, ids, infos, scratch, plan, cache, ranks, result);
   result.integrate_s = seconds_since(integrate_start);
+  result.scans_resumed = ranks.sum(result.scans_resumed);
+  result.integrations_resumed = ranks.sum(result.integrations_resumed);
+  result.scan_loads = ranks.sum(result.scan_loads);
+  if (!lead) return result;  // the outputs are the first rank's
 
   const Clock::time_point write_start = Clock::now();
-  write_outputs(options, infos, scratch, cache, folder);
+  write_outputs(options, ids, infos, scratch, cache, folder);
   for (const std::string& name : result.isolated_scans)
     spdlog::warn("scan {} overlaps no other scan: its points keep their own SSAO", name);
   result.write_s = seconds_since(write_start);
@@ -763,7 +828,7 @@ ScansResult run_scans(const ScansOptions& options) {
   for (const auto& [name, error] : failures.items())
     result.failed_outputs.emplace_back(name, error.get<std::string>());
   folder.write("stats.json", [&](const std::string& path) {
-    write_stats(path, result, options, folder, scratch.dir());
+    write_stats(path, result, options, folder, scratch.dir(), ranks.size());
   });
   const nlohmann::json after = folder.failures_json();
   if (after.contains("stats.json"))

@@ -88,4 +88,13 @@ struct ScansResult {
 /// frame) for bad input data, with no output written.
 ScansResult run_scans(const ScansOptions& options);
 
+class Ranks;
+
+/// The same job shared by the ranks of an MPI job (pipeline/ranks.h), which must all call it
+/// with the same options and see the same scratch folder: each rank computes the first stage of
+/// its share of the scans (scan k of input unit u goes to rank (u + k) mod N) and the MVAO of every
+/// N-th scan, each with its own memory limit; the first rank prepares the folders and writes the
+/// outputs, the same bytes as one process. Ranks other than the first return without outputs.
+ScansResult run_scans(const ScansOptions& options, Ranks& ranks);
+
 }  // namespace aoscan

@@ -303,26 +303,26 @@ std::optional<long long> mvao_file_shared(const std::string& path, long long poi
   }
 }
 
-std::shared_ptr<const ScanAo> ScanCache::get(int index, std::size_t bytes) {
+std::shared_ptr<const ScanAo> ScanCache::get(std::uint64_t key, std::size_t bytes) {
   for (auto it = entries_.begin(); it != entries_.end(); ++it)
-    if (it->index == index) {
+    if (it->key == key) {
       entries_.splice(entries_.begin(), entries_, it);
       return it->scan;
     }
   trim(budget_ > bytes ? budget_ - bytes : 0);
   auto scan = std::make_shared<ScanAo>();
-  load_(index, *scan);
+  load_(key, *scan);
   ++loads_;
-  entries_.push_front(Entry{index, bytes, scan});
+  entries_.push_front(Entry{key, bytes, scan});
   held_ += bytes;
   return scan;
 }
 
-void ScanCache::put(int index, std::shared_ptr<const ScanAo> scan, std::size_t bytes) {
+void ScanCache::put(std::uint64_t key, std::shared_ptr<const ScanAo> scan, std::size_t bytes) {
   if (bytes > budget_) return;
   trim(budget_ - bytes);
   if (held_ + bytes > budget_) return;
-  entries_.push_front(Entry{index, bytes, std::move(scan)});
+  entries_.push_front(Entry{key, bytes, std::move(scan)});
   held_ += bytes;
 }
 

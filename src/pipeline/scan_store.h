@@ -74,16 +74,17 @@ std::optional<long long> mvao_file_shared(const std::string& path, long long poi
 /// Loaded scans, least recently used first out, within a byte budget.
 class ScanCache {
  public:
-  using Loader = std::function<void(int index, ScanAo& scan)>;
+  /// Scans are known by a key of the caller's choosing.
+  using Loader = std::function<void(std::uint64_t key, ScanAo& scan)>;
   ScanCache(std::size_t budget_bytes, Loader load) : budget_(budget_bytes), load_(std::move(load)) {}
 
-  /// Scan `index`, loaded (taking `bytes`) if it is not held. To make room the least recently
+  /// Scan `key`, loaded (taking `bytes`) if it is not held. To make room the least recently
   /// used scans that nobody else holds are dropped; a scan still held elsewhere stays (the caller
   /// plans its budget so that what it holds at once fits).
-  std::shared_ptr<const ScanAo> get(int index, std::size_t bytes);
+  std::shared_ptr<const ScanAo> get(std::uint64_t key, std::size_t bytes);
   /// Keeps a scan computed elsewhere (as most recently used) if it fits the budget after dropping
   /// what can be dropped; otherwise drops it.
-  void put(int index, std::shared_ptr<const ScanAo> scan, std::size_t bytes);
+  void put(std::uint64_t key, std::shared_ptr<const ScanAo> scan, std::size_t bytes);
   /// Drops least recently used scans nobody else holds until at most `bytes` are held.
   void trim(std::size_t bytes);
   /// A new budget (what is held beyond it is dropped as far as it can be).
@@ -99,7 +100,7 @@ class ScanCache {
 
  private:
   struct Entry {
-    int index;
+    std::uint64_t key;
     std::size_t bytes;
     std::shared_ptr<const ScanAo> scan;
   };

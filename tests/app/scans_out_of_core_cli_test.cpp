@@ -86,14 +86,14 @@ TEST_F(ScansOutOfCore, AResumedRunRecomputesOnlyWhatIsMissingOrDamaged) {
   ASSERT_TRUE(fs::exists(scratch / "run.json"));
   // As if the run had stopped during the integration: two MVAO files missing, one scan file cut
   // short, and the recording's record of its finished scans gone (so it is read again).
-  fs::remove(scratch / "mvao-000002.bin");
-  fs::remove(scratch / "mvao-000006.bin");
-  fs::resize_file(scratch / "scan-000004.bin", fs::file_size(scratch / "scan-000004.bin") / 2);
+  fs::remove(scratch / "mvao-000000-000002.bin");
+  fs::remove(scratch / "mvao-000000-000006.bin");
+  fs::resize_file(scratch / "scan-000000-000004.bin", fs::file_size(scratch / "scan-000000-000004.bin") / 2);
   fs::remove(scratch / "unit-000000.json");
 
   const testing::CliRun resumed = scans("out", "--resume");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
-  EXPECT_NE(resumed.err.find("scan-000004.bin: damaged scratch file"), std::string::npos)
+  EXPECT_NE(resumed.err.find("scan-000000-000004.bin: damaged scratch file"), std::string::npos)
       << resumed.err;
   const nlohmann::json stats = read_stats(dir_.file("out"));
   EXPECT_EQ(stats["scans_resumed"], kScans - 1);

@@ -126,9 +126,9 @@ TEST(ScanStore, DamagedOrMissingFilesAreErrorsNamingTheFile) {
 
 TEST(ScanCache, DropsTheLeastRecentlyUsedScansThatNobodyHolds) {
   std::vector<int> loaded;
-  ScanCache cache(300, [&loaded](int index, ScanAo& scan) {
-    loaded.push_back(index);
-    scan.map.name = std::to_string(index);
+  ScanCache cache(300, [&loaded](std::uint64_t key, ScanAo& scan) {
+    loaded.push_back(static_cast<int>(key));
+    scan.map.name = std::to_string(key);
   });
   EXPECT_EQ(cache.get(0, 100)->map.name, "0");
   cache.get(1, 100);
