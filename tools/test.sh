@@ -14,6 +14,8 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   build_dir=build-asan
   # -O1 keeps Eigen-heavy tests quick and the build short; asserts stay on.
   flags=(-DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1" -DAOSCAN_SANITIZE=ON)
+  # The suites and what they run; the benchmarks and evaluation tools are built by the Release run.
+  targets=(aoscan_tests)
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
   export LSAN_OPTIONS="suppressions=$root/tools/lsan.supp"
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

@@ -153,6 +153,28 @@ TEST_F(ScansOutOfCore, AMemoryLimitBelowOneScanIsAUsageErrorNamingIt) {
   }
 }
 
+TEST_F(ScansOutOfCore, AFullScratchDiskIsAnErrorNamingTheFileAndTheRunResumesAfterwards) {
+  ASSERT_EQ(scans("reference", "").exit_code, 0);
+  // A file size limit of 128 KiB stands for a full disk: a scan's scratch file (up to 675 KiB)
+  // does not fit.
+  const testing::CliRun full =
+      run_aoscan("scans " + quote(rec()) + " --every 5 --neighbourhood 3 --threads 2 --out " +
+                     quote(dir_.file("out")),
+                 dir_.str(), "sh -c 'ulimit -f 128; exec \"$0\" \"$@\"'");
+  EXPECT_EQ(full.exit_code, 1) << full.err;
+  EXPECT_NE(full.err.find("aoscan: error: " + dir_.file("out/scratch/scan-000000-000000.bin") +
+                          ": cannot write"),
+            std::string::npos)
+      << full.err;
+  EXPECT_EQ(testing::count(full.err, "\n"), 1u) << full.err;
+  EXPECT_FALSE(fs::exists(dir_.file("out/points.ply")));
+  EXPECT_FALSE(fs::exists(dir_.file("out/stats.json")));
+  EXPECT_FALSE(fs::exists(dir_.file("out/scratch/scan-000000-000000.bin.partial")));
+  const testing::CliRun resumed = scans("out", "--resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_EQ(ply("out"), ply("reference"));
+}
+
 TEST_F(ScansOutOfCore, AScratchFolderInAnotherPlaceIsUsedAndOnlyItsOwnFilesRemoved) {
   const fs::path scratch = dir_.file("elsewhere");
   fs::create_directories(scratch);

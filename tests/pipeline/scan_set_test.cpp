@@ -3,8 +3,11 @@
 // stats.json; errors for inputs that hold no scan.
 #include "pipeline/scan_set.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <limits>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -205,6 +208,39 @@ TEST(ScanSet, InputsThatHoldNoScanAreErrors) {
     EXPECT_NE(std::string(e.what()).find("empty"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(std::filesystem::exists(dir.file("out/points.ply")));
+}
+
+TEST(ScanSet, NonFinitePointsAreSkippedAndCountedAndChangeNothingElse) {
+  ScratchDir dir;
+  write_laser_cloud(dir.file("clean.ply"), Eigen::Vector3d(1.5, 1.5, 1.2));
+  TriangleMesh cloud = read_ply(dir.file("clean.ply"));
+  cloud.normals.clear();
+  cloud.quality.clear();
+  write_ply(dir.file("clean.ply"), cloud);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (const Eigen::Vector3f& bad : {Eigen::Vector3f(nan, 0, 0), Eigen::Vector3f(0, inf, 1),
+                                     Eigen::Vector3f(-inf, nan, 2)})
+    cloud.vertices.push_back(bad);
+  write_ply(dir.file("dirty.ply"), cloud);
+  ScansOptions options;
+  options.show_progress = false;
+  for (const char* name : {"clean", "dirty"}) {
+    write_text(dir.file(std::string(name) + ".json"),
+               std::string(R"({"scans": [{"name": "s", "points": ")") + name +
+                   R"(.ply", "scanner": [0, 0, 1]}]})");
+    options.inputs = {dir.file(std::string(name) + ".json")};
+    options.out_dir = dir.file(std::string("out-") + name);
+    run_scans(options);
+  }
+  const nlohmann::json clean = read_json(dir.file("out-clean/stats.json"));
+  const nlohmann::json dirty = read_json(dir.file("out-dirty/stats.json"));
+  EXPECT_EQ(dirty["per_scan"][0]["points_skipped"].get<long long>(),
+            clean["per_scan"][0]["points_skipped"].get<long long>() + 3);
+  EXPECT_EQ(dirty["points"], clean["points"]);
+  std::ifstream a(dir.file("out-clean/points.ply"), std::ios::binary);
+  std::ifstream b(dir.file("out-dirty/points.ply"), std::ios::binary);
+  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), {}, std::istreambuf_iterator<char>(b)));
 }
 
 }  // namespace
