@@ -100,8 +100,6 @@ ExitCode run_print_config(const RunArgs& args) {
 }
 
 ExitCode run_scans_command(const ScansArgs& args) {
-  if (!args.unsupported.empty())
-    throw usage_error("scans: " + args.unsupported.front() + " is not implemented yet");
   ScansOptions options = args.scans;
   options.config = load_config(args.config_file, args.sets);
   options.show_progress = !args.no_progress;

@@ -44,9 +44,6 @@ struct ScansArgs {
   std::vector<std::string> sets;
   int threads = 0;  ///< 0: all cores
   bool no_progress = false;
-  /// Options of the contract that this version does not implement yet: refused with a usage
-  /// error rather than ignored.
-  std::vector<std::string> unsupported;
 };
 
 /// Each returns the process exit code; set-up failures are thrown as aoscan::Error.

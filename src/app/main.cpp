@@ -222,10 +222,9 @@ void add_scans_options(CLI::App& cmd, ScansArgs& args) {
                "not computed again");
   cmd.add_flag("--keep-scratch", o.keep_scratch, "keep the scratch folder after a complete run");
   cmd.add_flag("--no-progress", args.no_progress, "no progress lines on stderr");
-  // In the contract, not implemented yet: refused with a clear message.
-  cmd.add_flag("--mesh", "not implemented yet")->each([&args](const std::string&) {
-    args.unsupported.push_back("--mesh");
-  });
+  cmd.add_flag("--mesh", o.mesh,
+               "also write mesh.ply: the scans fused into a TSDF (tsdf.* keys), each vertex with "
+               "the AO of the nearest scan point");
 }
 
 int report(ExitCode code, const std::string& message) {

@@ -32,6 +32,7 @@
 #include "io/tum.h"
 #include "pipeline/output_folder.h"
 #include "pipeline/ranks.h"
+#include "pipeline/scan_mesh.h"
 #include "pipeline/scan_store.h"
 #include "pipeline/session.h"
 
@@ -526,6 +527,13 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
   j["scratch"] = scratch;
   j["stages_s"] = {
       {"load", r.load_s}, {"ssao", r.ssao_s}, {"integrate", r.integrate_s}, {"write", r.write_s}};
+  if (options.mesh)
+    j["mesh"] = {{"vertices", r.mesh_vertices},
+                 {"faces", r.mesh_faces},
+                 {"vertices_without_ao", r.mesh_vertices_without_ao},
+                 {"tsdf_blocks", r.mesh_tsdf_blocks},
+                 {"capacity_reached", r.mesh_capacity_reached},
+                 {"seconds", r.mesh_s}};
   nlohmann::json per_scan = nlohmann::json::array();
   for (const ScanSummary& s : r.scans)
     per_scan.push_back({{"name", s.name},
@@ -765,6 +773,38 @@ void write_outputs(const ScansOptions& options, const std::vector<ScanId>& ids,
   });
 }
 
+/// --mesh: mesh.ply from the scans, each vertex with the AO its points were given.
+void write_mesh(const ScansOptions& options, const std::vector<ScanId>& ids,
+                const std::vector<ScanInfo>& infos, const Scratch& scratch, ScanCache& cache,
+                OutputFolder& folder, ScansResult& result) {
+  const Clock::time_point start = Clock::now();
+  ScanMeshStats stats;
+  const TriangleMesh mesh = mesh_scans(
+      static_cast<int>(infos.size()),
+      [&](int i) { return cache.get(ids[i].key(), infos[i].loaded_bytes()); },
+      [&](int i, const ScanAo& scan, Image<float>& ao) {
+        if (options.ssao_only)
+          ao = scan.ssao;
+        else
+          read_mvao_file(scratch.mvao_file(ids[i]), scan.map, ao);
+      },
+      options.config.fusion, stats);
+  if (stats.capacity_reached)
+    spdlog::warn("mesh.ply: the TSDF reached tsdf.max_blocks ({}): parts of the scans are missing "
+                 "from it (raise tsdf.max_blocks or tsdf.voxel_size_m)",
+                 options.config.fusion.max_blocks);
+  if (stats.vertices_without_ao > 0)
+    spdlog::warn("mesh.ply: {} of {} vertices have no scan point within {} m: their AO is 1",
+                 stats.vertices_without_ao, stats.vertices, options.config.fusion.truncation_m);
+  folder.write("mesh.ply", [&mesh](const std::string& path) { write_ply(path, mesh); });
+  result.mesh_vertices = stats.vertices;
+  result.mesh_faces = stats.faces;
+  result.mesh_vertices_without_ao = stats.vertices_without_ao;
+  result.mesh_tsdf_blocks = stats.tsdf_blocks;
+  result.mesh_capacity_reached = stats.capacity_reached;
+  result.mesh_s = seconds_since(start);
+}
+
 }  // namespace
 
 ScansResult run_scans(const ScansOptions& options) { return run_scans(options, *single_process()); }
@@ -781,7 +821,9 @@ ScansResult run_scans(const ScansOptions& options, Ranks& ranks) {
   OutputFolder folder(options.out_dir, nullptr);
   if (lead) {
     scratch.open(options.resume);
-    folder.prepare({"points.ply", "stats.json", "scans/"}, {"points.ply", "stats.json"});
+    std::vector<std::string> writes = {"points.ply", "stats.json"};
+    if (options.mesh) writes.push_back("mesh.ply");
+    folder.prepare({"points.ply", "stats.json", "scans/", "mesh.ply"}, writes);
   }
   ranks.barrier();
 
@@ -820,6 +862,7 @@ ScansResult run_scans(const ScansOptions& options, Ranks& ranks) {
 
   const Clock::time_point write_start = Clock::now();
   write_outputs(options, ids, infos, scratch, cache, folder);
+  if (options.mesh) write_mesh(options, ids, infos, scratch, cache, folder, result);
   for (const std::string& name : result.isolated_scans)
     spdlog::warn("scan {} overlaps no other scan: its points keep their own SSAO", name);
   result.write_s = seconds_since(write_start);

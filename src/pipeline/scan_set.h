@@ -40,6 +40,9 @@ struct ScansOptions {
   bool keep_scratch = false;
   /// Print a progress line with the time left every few seconds.
   bool show_progress = true;
+  /// Also write mesh.ply: the scans fused into a TSDF (tsdf.* keys), each vertex with the AO of
+  /// the nearest scan point (pipeline/scan_mesh.h).
+  bool mesh = false;
 };
 
 /// One scan of the set, as loaded.
@@ -70,6 +73,11 @@ struct ScansResult {
   /// load: reading the inputs; ssao: normals, SSAO and border distances (with load, per scan,
   /// the first stage); integrate: the MVAO; write: the outputs.
   double load_s = 0.0, ssao_s = 0.0, integrate_s = 0.0, write_s = 0.0, wall_s = 0.0;
+  /// --mesh: what the mesh took.
+  long long mesh_vertices = 0, mesh_faces = 0, mesh_vertices_without_ao = 0;
+  int mesh_tsdf_blocks = 0;
+  bool mesh_capacity_reached = false;
+  double mesh_s = 0.0;
   /// The outputs that could not be written (file name, one-line error); the run's exit code is
   /// then 1.
   std::vector<std::pair<std::string, std::string>> failed_outputs;

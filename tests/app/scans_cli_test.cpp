@@ -25,17 +25,19 @@ TEST(ScansCli, ARecordingFolderGivesTheContractsOutputs) {
             0);
   const std::string out = dir.file("out");
   const testing::CliRun r = run_aoscan("scans " + quote(rec) + " --out " + quote(out) +
-                                           " --every 10 --neighbourhood 3 --threads 1 --set "
-                                           "ao.radius_m=0.15",
+                                           " --every 10 --neighbourhood 3 --threads 1 --mesh "
+                                           "--set ao.radius_m=0.15",
                                        dir.str());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("3 scans"), std::string::npos) << r.err;
-  for (const char* file : {"points.ply", "stats.json", "scans/rec-0.ply", "scans/rec-20.ply"})
+  for (const char* file :
+       {"points.ply", "stats.json", "scans/rec-0.ply", "scans/rec-20.ply", "mesh.ply"})
     EXPECT_TRUE(std::filesystem::is_regular_file(std::filesystem::path(out) / file)) << file;
   const nlohmann::json stats = read_stats(out);
   EXPECT_EQ(stats["scans"], 3);
   EXPECT_EQ(stats["neighbourhood"], 3);
   for (const char* key : {"points", "wall_s", "peak_rss_mb"}) EXPECT_TRUE(stats.contains(key));
+  EXPECT_GT(stats["mesh"]["faces"].get<long long>(), 0);
 }
 
 TEST(ScansCli, BadOptionsAndInputsAreOneLineErrorsWithTheContractsExitCodes) {
@@ -47,7 +49,6 @@ TEST(ScansCli, BadOptionsAndInputsAreOneLineErrorsWithTheContractsExitCodes) {
   } cases[] = {
       {"scans", 2, "INPUT is required"},
       {"scans " + quote(dir.str()) + " --neighbourhood 4", 2, "not in {1,3,5,7,9}"},
-      {"scans " + quote(dir.str()) + " --mesh", 2, "--mesh is not implemented yet"},
       {"scans " + quote(dir.file("absent.yaml")), 3, "absent.yaml: cannot open the scan manifest"},
       {"scans " + quote(dir.file("absent")), 3, "absent: no such file or folder"},
       {"scans " + quote(dir.str()) + " --set ao.radius_m=-1", 2, "ao.radius_m"},
