@@ -34,24 +34,38 @@ inline std::int64_t distance_sq(int x, int y, const SeedRef& s, int wrap_width) 
 void flood_pass(const Image<SeedRef>& in, int k, bool wrap_x, Image<SeedRef>& out) {
   const int w = in.width(), h = in.height();
   const int wrap_width = wrap_x ? w : 0;
+  // The columns x - k, x, x + k of every x (around the cylinder, or -1 off the image), worked out
+  // once per pass rather than per pixel.
+  std::vector<int> columns(static_cast<std::size_t>(w) * 3);
+  for (int x = 0; x < w; ++x)
+    for (int c = 0; c < 3; ++c) {
+      int nx = x + (c - 1) * k;
+      if (wrap_x) {
+        nx %= w;
+        if (nx < 0) nx += w;
+      } else if (nx < 0 || nx >= w) {
+        nx = -1;
+      }
+      columns[static_cast<std::size_t>(x) * 3 + c] = nx;
+    }
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      const SeedRef* row[3];
+      for (int r = 0; r < 3; ++r) {
+        const int ny = y + (r - 1) * k;
+        row[r] = ny >= 0 && ny < h ? &in(0, ny) : nullptr;
+      }
+      SeedRef* row_out = &out(0, y);
       for (int x = 0; x < w; ++x) {
-        SeedRef best = in(x, y);
+        SeedRef best = row[1][x];
         std::int64_t best_d = best.x >= 0 ? distance_sq(x, y, best, wrap_width)
                                           : std::numeric_limits<std::int64_t>::max();
-        for (int dy = -k; dy <= k; dy += k)
-          for (int dx = -k; dx <= k; dx += k) {
-            if (dx == 0 && dy == 0) continue;
-            int nx = x + dx;
-            const int ny = y + dy;
-            if (ny < 0 || ny >= h) continue;
-            if (wrap_x) {
-              nx = ((nx % w) + w) % w;
-            } else if (nx < 0 || nx >= w) {
-              continue;
-            }
-            const SeedRef& s = in(nx, ny);
+        const int* cols = &columns[static_cast<std::size_t>(x) * 3];
+        for (int r = 0; r < 3; ++r) {
+          if (row[r] == nullptr) continue;
+          for (int c = 0; c < 3; ++c) {
+            if ((r == 1 && c == 1) || cols[c] < 0) continue;
+            const SeedRef& s = row[r][cols[c]];
             if (s.x < 0) continue;
             const std::int64_t d = distance_sq(x, y, s, wrap_width);
             // Ties go to the smaller (y, x) seed, so the result is the same in any visiting order.
@@ -60,8 +74,10 @@ void flood_pass(const Image<SeedRef>& in, int k, bool wrap_x, Image<SeedRef>& ou
               best_d = d;
             }
           }
-        out(x, y) = best;
+        }
+        row_out[x] = best;
       }
+    }
   });
 }
 

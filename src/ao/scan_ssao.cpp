@@ -21,6 +21,15 @@ using detail::pattern_class;
 using detail::smoothstep01;
 
 
+/// Column x of a map that wraps around in x (equirectangular): one addition or subtraction for
+/// the columns just off either edge, the usual case.
+inline int wrap_column(int x, int width) {
+  if (x < 0) x += width;
+  if (x >= width) x -= width;
+  if (x < 0 || x >= width) x = ((x % width) + width) % width;  // farther than a width off
+  return x;
+}
+
 /// The unsmoothed SSAO of pixel (x, y).
 float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& pattern, int x,
                int y) {
@@ -47,7 +56,7 @@ float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& p
     const Eigen::Vector2f& o = pattern.offsets[cls * pattern.samples + k];
     int sx = x + static_cast<int>(std::lround(o.x() * radius_px));
     const int sy = y + static_cast<int>(std::lround(o.y() * radius_px));
-    if (wrap) sx = ((sx % camera.width) + camera.width) % camera.width;
+    if (wrap) sx = wrap_column(sx, camera.width);
     if (sx < 0 || sy < 0 || sx >= camera.width || sy >= camera.height) continue;
     if ((sx == x && sy == y) || !map.has_point(sx, sy)) continue;
     const Eigen::Vector3f v = map.points(sx, sy) - p;
@@ -81,11 +90,17 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
                        Image<float>& ao) {
   const int w = map.camera.width, h = map.camera.height;
   const SsaoPattern pattern = make_ssao_pattern(config, pattern_index);
+  // Which pixels have a point and a normal: read 26 times a pixel below.
+  Image<std::uint8_t> valid(w, h, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x) valid(x, y) = has_normal(map, x, y) ? 1 : 0;
+  });
   Image<float> raw(w, h, 1.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x)
-        raw(x, y) = has_normal(map, x, y) ? pixel_ao(map, config, pattern, x, y) : 1.0f;
+        raw(x, y) = valid(x, y) ? pixel_ao(map, config, pattern, x, y) : 1.0f;
   });
   // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
   static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};
@@ -94,7 +109,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
-        if (!has_normal(map, x, y)) {
+        if (!valid(x, y)) {
           ao(x, y) = 1.0f;
           continue;
         }
@@ -103,8 +118,8 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
           for (int dx = -2; dx <= 2; ++dx) {
             int sx = x + dx;
             const int sy = y + dy;
-            if (wrap) sx = ((sx % w) + w) % w;
-            if (sx < 0 || sy < 0 || sx >= w || sy >= h || !has_normal(map, sx, sy)) continue;
+            if (wrap) sx = wrap_column(sx, w);
+            if (sx < 0 || sy < 0 || sx >= w || sy >= h || !valid(sx, sy)) continue;
             const float k = kTaps[dx + 2] * kTaps[dy + 2];
             sum += k * raw(sx, sy);
             weights += k;

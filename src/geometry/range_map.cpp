@@ -3,6 +3,8 @@
 #include "geometry/range_map.h"
 
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -48,29 +50,45 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
                       std::to_string(normals.size()) + " normals");
   map.points.resize(map.camera.width, map.camera.height, Eigen::Vector3f::Zero());
   map.normals.resize(map.camera.width, map.camera.height, Eigen::Vector3f::Zero());
-  for (int y = 0; y < map.camera.height; ++y)
-    for (int x = 0; x < map.camera.width; ++x) {
-      map.points(x, y).setZero();
-      map.normals(x, y).setZero();
-    }
+  map.points.fill(Eigen::Vector3f::Zero());
+  map.normals.fill(Eigen::Vector3f::Zero());
+  // The projections (the costly part: two arc tangents a point for a laser scan) in parallel,
+  // then the nearest-point test in input order, so that ties go to the first point as before.
+  const std::size_t n = points.size();
+  std::vector<std::int64_t> pixel(n);
+  std::vector<float> depth(n);
+  const int width = map.camera.width;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                        int x = 0, y = 0;
+                        if (!map.camera.pixel_of(points[i], x, y)) {
+                          pixel[i] = -1;
+                          continue;
+                        }
+                        pixel[i] = static_cast<std::int64_t>(y) * width + x;
+                        depth[i] = map.camera.depth(points[i]);
+                      }
+                    });
+  Image<float> nearest(map.camera.width, map.camera.height, 0.0f);  // depth of the point kept
   long long skipped = 0;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3f& p = points[i];
-    int x = 0, y = 0;
-    if (!map.camera.pixel_of(p, x, y)) {
+  for (std::size_t i = 0; i < n; ++i) {
+    if (pixel[i] < 0) {
       ++skipped;
       continue;
     }
-    if (map.has_point(x, y) && !(map.camera.depth(p) < map.camera.depth(map.points(x, y))))
-      continue;
+    const int x = static_cast<int>(pixel[i] % width), y = static_cast<int>(pixel[i] / width);
+    const Eigen::Vector3f& p = points[i];
+    if (map.has_point(x, y) && !(depth[i] < nearest(x, y))) continue;
     map.points(x, y) = p;
+    nearest(x, y) = depth[i];
     if (with_normals) {
-      Eigen::Vector3f n = normals[i];
-      const float length = n.norm();
-      n = length > 0.0f && std::isfinite(length) ? Eigen::Vector3f(n / length)
-                                                 : Eigen::Vector3f::Zero();
-      if (n.dot(p) > 0.0f) n = -n;  // face the scanner
-      map.normals(x, y) = n;
+      Eigen::Vector3f normal = normals[i];
+      const float length = normal.norm();
+      normal = length > 0.0f && std::isfinite(length) ? Eigen::Vector3f(normal / length)
+                                                      : Eigen::Vector3f::Zero();
+      if (normal.dot(p) > 0.0f) normal = -normal;  // face the scanner
+      map.normals(x, y) = normal;
     }
   }
   return skipped;

@@ -25,16 +25,24 @@ namespace {
 // ---- writing ----------------------------------------------------------------------------------
 
 void put_u32(std::vector<unsigned char>& out, std::uint32_t v) {
-  out.push_back(static_cast<unsigned char>(v));
-  out.push_back(static_cast<unsigned char>(v >> 8));
-  out.push_back(static_cast<unsigned char>(v >> 16));
-  out.push_back(static_cast<unsigned char>(v >> 24));
+  const unsigned char b[4] = {static_cast<unsigned char>(v), static_cast<unsigned char>(v >> 8),
+                              static_cast<unsigned char>(v >> 16),
+                              static_cast<unsigned char>(v >> 24)};
+  out.insert(out.end(), b, b + 4);
 }
 
 void put_f32(std::vector<unsigned char>& out, float f) {
   std::uint32_t bits;
   std::memcpy(&bits, &f, sizeof bits);
   put_u32(out, bits);
+}
+
+float load_f32(const unsigned char* b) {
+  std::uint32_t bits = static_cast<std::uint32_t>(b[0]) | static_cast<std::uint32_t>(b[1]) << 8 |
+                       static_cast<std::uint32_t>(b[2]) << 16 | static_cast<std::uint32_t>(b[3]) << 24;
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
 }
 
 unsigned char grey(float quality) {
@@ -106,18 +114,17 @@ class DataReader {
   }
   std::size_t remaining() const { return data_.size() - pos_; }
 
- private:
-  [[noreturn]] void truncated(const char* what, std::uint64_t index) const {
-    throw input_error(path_ + ": truncated or malformed PLY data at " + what + " " +
-                      std::to_string(index));
+  /// The next `n` bytes (binary data), or a truncation error.
+  const unsigned char* take(std::size_t n, const char* what, std::uint64_t index) {
+    if (remaining() < n) truncated(what, index);
+    const auto* p = reinterpret_cast<const unsigned char*>(data_.data() + pos_);
+    pos_ += n;
+    return p;
   }
 
-  double next_binary(Type t, const char* what, std::uint64_t index) {
+  /// A little-endian value of type `t` at `b`.
+  static double decode(Type t, const unsigned char* b) {
     const std::size_t n = type_size(t);
-    if (remaining() < n) truncated(what, index);
-    unsigned char b[8];
-    std::memcpy(b, data_.data() + pos_, n);
-    pos_ += n;
     std::uint64_t u = 0;
     for (std::size_t i = 0; i < n; ++i) u |= static_cast<std::uint64_t>(b[i]) << (8 * i);
     switch (t) {
@@ -146,6 +153,17 @@ class DataReader {
       }
     }
     return 0.0;
+  }
+
+
+ private:
+  [[noreturn]] void truncated(const char* what, std::uint64_t index) const {
+    throw input_error(path_ + ": truncated or malformed PLY data at " + what + " " +
+                      std::to_string(index));
+  }
+
+  double next_binary(Type t, const char* what, std::uint64_t index) {
+    return decode(t, take(type_size(t), what, index));
   }
 
   double next_ascii(const char* what, std::uint64_t index) {
@@ -380,9 +398,40 @@ std::vector<int> vertex_roles(const std::string& path, const Element& e, Triangl
 /// and the polygons of the face list column `face_list` (fanned into triangles) go into `mesh`;
 /// everything else is read and dropped. `have_vertices`: a vertex element came before.
 void read_element(const std::string& path, const Element& e, const std::vector<int>& role,
-                  int face_list, bool have_vertices, DataReader& reader, TriangleMesh& mesh) {
+                  int face_list, bool have_vertices, bool ascii, DataReader& reader,
+                  TriangleMesh& mesh) {
   const bool is_vertex = e.name == "vertex";
   const char* what = e.name.c_str();
+  const bool fixed = std::none_of(e.properties.begin(), e.properties.end(),
+                                  [](const Property& p) { return p.is_list; });
+  if (!ascii && fixed) {
+    // Binary rows of one size: each taken whole, its columns decoded at their offsets.
+    std::vector<std::size_t> offset;
+    std::size_t row = 0;
+    for (const Property& p : e.properties) {
+      offset.push_back(row);
+      row += type_size(p.type);
+    }
+    for (std::uint64_t index = 0; index < e.count; ++index) {
+      const unsigned char* b = reader.take(row, what, index);
+      if (!is_vertex) continue;
+      for (std::size_t i = 0; i < e.properties.size(); ++i) {
+        const int r = role[i];
+        if (r < 0) continue;
+        const float f = e.properties[i].type == Type::kFloat32
+                            ? load_f32(b + offset[i])
+                            : static_cast<float>(DataReader::decode(e.properties[i].type, b + offset[i]));
+        if (r < 3) {
+          mesh.vertices[index][r] = f;
+        } else if (r < 6) {
+          mesh.normals[index][r - 3] = f;
+        } else {
+          mesh.quality[index] = f;
+        }
+      }
+    }
+    return;
+  }
   std::vector<int> polygon;
   for (std::uint64_t index = 0; index < e.count; ++index) {
     for (std::size_t i = 0; i < e.properties.size(); ++i) {
@@ -433,12 +482,13 @@ void read_element(const std::string& path, const Element& e, const std::vector<i
 }  // namespace
 
 TriangleMesh read_ply(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw input_error(path + ": cannot open PLY file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw input_error(path + ": cannot read PLY file");
-  const std::string text = buffer.str();
+  const std::streamoff size = in.tellg();
+  if (size < 0) throw input_error(path + ": cannot read PLY file");
+  std::string text(static_cast<std::size_t>(size), '\0');
+  in.seekg(0);
+  if (!in.read(text.data(), size)) throw input_error(path + ": cannot read PLY file");
   const PlyHeader header = parse_header(path, text);
 
   DataReader reader(path, std::string_view(text).substr(header.data_offset), header.ascii);
@@ -462,7 +512,7 @@ TriangleMesh read_ply(const std::string& path) {
         if (e.properties[i].is_list &&
             (e.properties[i].name == "vertex_indices" || e.properties[i].name == "vertex_index"))
           face_list = static_cast<int>(i);
-    read_element(path, e, role, face_list, have_vertices, reader, mesh);
+    read_element(path, e, role, face_list, have_vertices, header.ascii, reader, mesh);
   }
   return mesh;
 }
