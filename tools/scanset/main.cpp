@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -393,6 +394,9 @@ int run(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return report_error(ExitCode::kUsage, e.what() + std::string(" (see aoscan-scanset --help)"));
   }
+  // A write past a file size limit fails with EFBIG (an error naming the file) instead of
+  // killing the process.
+  std::signal(SIGXFSZ, SIG_IGN);
   try {
     return generate(o);
   } catch (const Error& e) {
