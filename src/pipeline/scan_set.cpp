@@ -680,8 +680,8 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
   params.neighbourhood = options.neighbourhood;
   const int n = static_cast<int>(infos.size());
 
-  // The accumulator and MVAO image of the largest scan, and the two largest scans at once, must
-  // fit; the rest of the budget holds loaded scans.
+  // The accumulator of the largest scan, one MVAO image, and the two largest scans at once must
+  // fit; the rest of the budget holds more scans being integrated and loaded scans.
   std::size_t largest = 0, second = 0, largest_pixels = 0;
   std::string largest_name;
   for (const ScanInfo& info : infos) {
@@ -695,40 +695,73 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
     }
     largest_pixels = std::max(largest_pixels, info.pixels());
   }
-  const std::uint64_t fixed = largest_pixels * (MvaoAccumulator::kBytesPerPixel + sizeof(float));
-  plan.require(fixed + largest + second, "integrating scan " + largest_name + " with another");
-  cache.set_budget(plan.budget() - fixed);
+  const std::uint64_t accumulator_bytes_per_pixel = MvaoAccumulator::kBytesPerPixel;
+  const std::uint64_t finish_bytes = largest_pixels * sizeof(float);  // one MVAO image at a time
+  plan.require(largest_pixels * accumulator_bytes_per_pixel + finish_bytes + largest + second,
+               "integrating scan " + largest_name + " with another");
 
-  StageProgress progress(options.show_progress && ranks.rank() == 0, "MVAO", "points",
-                         result.points);
-  long long points_done = 0;
-  for (int i = 0; i < n; ++i) {
-    std::vector<int> candidates;
+  // Which scans each scan takes samples from: itself and those whose boxes meet its own.
+  std::vector<std::vector<int>> candidates(n);
+  for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) {
       if (j != i && !scan_boxes_meet(infos[i].world_box, infos[j].world_box, params.pair_margin_m)) {
         ++result.pairs_skipped;
         continue;
       }
       if (j != i) ++result.pairs_tested;
-      candidates.push_back(j);
+      candidates[i].push_back(j);
     }
-    const std::string file = scratch.mvao_file(ids[i]);
-    if (i % ranks.size() == ranks.rank()) {
-      if (options.resume && mvao_file_shared(file, infos[i].points)) {
-        ++result.integrations_resumed;
-      } else {
-        const std::shared_ptr<const ScanAo> scan_i = cache.get(ids[i].key(), infos[i].loaded_bytes());
-        MvaoAccumulator accumulator(*scan_i, params);
-        for (int j : candidates)
-          accumulator.add(j == i ? *scan_i : *cache.get(ids[j].key(), infos[j].loaded_bytes()),
-                          j == i);
-        Image<float> mvao;
-        const long long shared = accumulator.finish(mvao);
-        write_mvao_file(file, scan_i->map, mvao, shared);
-      }
+  // This rank's scans still to integrate.
+  std::vector<int> mine;
+  for (int i = ranks.rank(); i < n; i += ranks.size()) {
+    if (options.resume && mvao_file_shared(scratch.mvao_file(ids[i]), infos[i].points))
+      ++result.integrations_resumed;
+    else
+      mine.push_back(i);
+  }
+
+  // Batches of scans integrated together: each batch's scans and accumulators stay in memory
+  // while every scan any of them needs is read once, in index order (so each accumulator adds its
+  // candidates in the same order as alone, and gives the same bytes).
+  StageProgress progress(options.show_progress && ranks.rank() == 0, "MVAO", "scans",
+                         static_cast<long long>(mine.size()));
+  std::size_t next = 0;
+  while (next < mine.size()) {
+    std::vector<int> batch;
+    std::uint64_t used = finish_bytes + largest;  // and one more scan streaming through
+    for (; next < mine.size(); ++next) {
+      const ScanInfo& info = infos[mine[next]];
+      const std::uint64_t need = info.loaded_bytes() + info.pixels() * accumulator_bytes_per_pixel;
+      if (!batch.empty() && used + need > plan.budget()) break;
+      batch.push_back(mine[next]);
+      used += need;
     }
-    points_done += infos[i].points;
-    progress.done(points_done);
+    std::uint64_t accumulators = 0;
+    for (int i : batch) accumulators += infos[i].pixels() * accumulator_bytes_per_pixel;
+    cache.set_budget(plan.budget() - accumulators - finish_bytes);
+    std::vector<std::shared_ptr<const ScanAo>> held;
+    std::vector<std::unique_ptr<MvaoAccumulator>> sums;
+    for (int i : batch) {
+      held.push_back(cache.get(ids[i].key(), infos[i].loaded_bytes()));
+      sums.push_back(std::make_unique<MvaoAccumulator>(*held.back(), params));
+    }
+    std::vector<int> needed;
+    for (int i : batch) needed.insert(needed.end(), candidates[i].begin(), candidates[i].end());
+    std::sort(needed.begin(), needed.end());
+    needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
+    for (int j : needed) {
+      const std::shared_ptr<const ScanAo> scan_j = cache.get(ids[j].key(), infos[j].loaded_bytes());
+      for (std::size_t b = 0; b < batch.size(); ++b)
+        if (std::binary_search(candidates[batch[b]].begin(), candidates[batch[b]].end(), j))
+          sums[b]->add(*scan_j, j == batch[b]);
+    }
+    for (std::size_t b = 0; b < batch.size(); ++b) {
+      Image<float> mvao;
+      const long long shared = sums[b]->finish(mvao);
+      write_mvao_file(scratch.mvao_file(ids[batch[b]]), held[b]->map, mvao, shared);
+      sums[b].reset();
+    }
+    progress.done(static_cast<long long>(next));
   }
   result.scan_loads = cache.loads();
   ranks.barrier();
