@@ -24,6 +24,7 @@
 #include "io/png_write.h"
 #include "io/point_cloud_ply.h"
 #include "io/ptx_writer.h"
+#include "sim/scan_placement.h"
 #include "sim/synth_scanner.h"
 #include "sim/synth_scene.h"
 
@@ -33,66 +34,10 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-/// The golden angle (radians): successive scans of the spiral turn by it.
-constexpr double kGoldenAngle = 2.39996322972865332;
 /// Depth PNGs: raw units per metre (0.2 mm steps, up to 13.1 m; the TUM convention).
 constexpr double kPngDepthScale = 5000.0;
-/// Ranges the scanners measure (m): a laser scanner, and a depth camera.
-constexpr double kEquirectMinRange = 0.1, kEquirectMaxRange = 100.0;
-constexpr double kPinholeMinRange = 0.1, kPinholeMaxRange = 10.0;
-/// A scanner stands at least this far from every surface (m).
-constexpr double kClearance = 0.3;
 /// The equirectangular map that measures the share of rays that hit something (--points).
 constexpr int kCoverageHeight = 64;
-
-/// Where the scanners of a scene stand: an ellipse inscribed in a rectangle of free floor at one
-/// height, and the point the scanners face.
-struct Placement {
-  Eigen::Vector2d min_xy, max_xy;
-  double z;
-  Eigen::Vector3d target;
-};
-
-Placement placement_of(const std::string& scene) {
-  if (scene == "room") return {{0.6, 0.6}, {3.4, 3.4}, 1.5, {2.0, 2.0, 0.5}};
-  if (scene == "corner") return {{0.8, 0.8}, {3.2, 3.2}, 1.5, {1.0, 1.0, 0.5}};
-  if (scene == "plane") return {{-2.0, -3.5}, {2.0, -1.5}, 0.0, {0.0, 0.0, 0.0}};
-  throw usage_error("--scene: no scanner placement for scene '" + scene + "'");
-}
-
-/// Scan k of n: on the sunflower (Vogel) spiral filling the placement's ellipse, radius
-/// sqrt((k + 0.5) / n) of the half-axes and azimuth k times the golden angle, so any number of
-/// scans spreads evenly and every scan sees the middle of the scene that its neighbours see.
-/// Equirectangular scanners stand upright (z up) with their x axis facing the target's
-/// direction; pinhole cameras (x right, y down, z forward) look at the target.
-Pose scanner_pose(const Placement& place, int k, int n, bool pinhole) {
-  const Eigen::Vector2d centre = 0.5 * (place.min_xy + place.max_xy);
-  const Eigen::Vector2d half = 0.5 * (place.max_xy - place.min_xy);
-  const double r = std::sqrt((k + 0.5) / n);
-  const double a = k * kGoldenAngle;
-  const Eigen::Vector3d position(centre.x() + r * half.x() * std::cos(a),
-                                 centre.y() + r * half.y() * std::sin(a), place.z);
-  Eigen::Vector3d forward = place.target - position;
-  if (!pinhole) {
-    forward.z() = 0.0;
-    if (forward.norm() < 1e-9) forward = Eigen::Vector3d::UnitX();
-    forward.normalize();
-    Eigen::Matrix3d R;
-    R.col(0) = forward;
-    R.col(2) = Eigen::Vector3d::UnitZ();
-    R.col(1) = R.col(2).cross(R.col(0));
-    return Pose(R, position);
-  }
-  forward.normalize();
-  Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ());  // image x, level
-  if (right.norm() < 1e-6) right = Eigen::Vector3d::UnitX();        // looking straight down/up
-  right.normalize();
-  Eigen::Matrix3d R;
-  R.col(0) = right;
-  R.col(2) = forward;
-  R.col(1) = forward.cross(right);  // image y: down
-  return Pose(R, position);
-}
 
 struct Options {
   std::string out;
@@ -107,21 +52,6 @@ struct Options {
   bool no_normals = false;
   int threads = 0;
 };
-
-/// The scan's name: scan-001, scan-002, ... (more digits for more than 999 scans).
-std::string scan_name(int k, int n) {
-  const int digits = std::max(3, static_cast<int>(std::to_string(n).size()));
-  std::string number = std::to_string(k + 1);
-  return "scan-" + std::string(static_cast<std::size_t>(digits) - number.size(), '0') + number;
-}
-
-/// The noise key of scan k: the seed and the scan's index (splitmix64 of both).
-std::uint64_t scan_seed(std::uint64_t seed, int k) {
-  std::uint64_t z = seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(k) + 1;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
 
 std::string pose_row_major(const Pose& T) {
   const Eigen::Matrix4d m = T.matrix();
@@ -151,8 +81,8 @@ ScanCamera camera_of(const Options& o, const AnalyticScene& scene, const Pose& p
   if (o.points == 0) return ScanCamera::make_equirectangular(o.height);
   RangeMap probe;
   probe.name = name;
-  render_scan(scene, ScanCamera::make_equirectangular(kCoverageHeight), pose, kEquirectMinRange,
-              kEquirectMaxRange, ScannerNoise{}, probe);
+  render_scan(scene, ScanCamera::make_equirectangular(kCoverageHeight), pose, kLaserScanMinRangeM,
+              kLaserScanMaxRangeM, ScannerNoise{}, probe);
   const double coverage =
       static_cast<double>(probe.count_points()) / (2.0 * kCoverageHeight * kCoverageHeight);
   if (coverage == 0.0)
@@ -242,7 +172,7 @@ int generate(Options o) {
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<std::size_t>(o.threads));
   const AnalyticScene scene = AnalyticScene::make(o.scene);
-  const Placement place = placement_of(o.scene);
+  const ScannerPlacement place = scanner_placement(o.scene);
   const bool pinhole = o.camera == "pinhole";
   require_writable_folder(o.out, "--out DIR");
   const fs::path out(o.out);
@@ -250,17 +180,17 @@ int generate(Options o) {
 
   std::vector<Pose> poses;
   for (int k = 0; k < o.scans; ++k) {
-    poses.push_back(scanner_pose(place, k, o.scans, pinhole));
+    poses.push_back(spiral_scanner_pose(place, k, o.scans, pinhole));
     const double clearance = scene.signed_distance(poses.back().translation());
-    if (!(clearance >= kClearance))
-      throw Error(ExitCode::kFailure, "scan " + scan_name(k, o.scans) + " would stand " +
+    if (!(clearance >= kScannerClearanceM))
+      throw Error(ExitCode::kFailure, "scan " + spiral_scan_name(k, o.scans) + " would stand " +
                                           std::to_string(clearance) + " m from a surface");
   }
 
   ScannerNoise noise;
   noise.sigma_m = o.noise_mm * 1e-3;
-  const double min_range = pinhole ? kPinholeMinRange : kEquirectMinRange;
-  const double max_range = pinhole ? kPinholeMaxRange : kEquirectMaxRange;
+  const double min_range = pinhole ? kDepthScanMinRangeM : kLaserScanMinRangeM;
+  const double max_range = pinhole ? kDepthScanMaxRangeM : kLaserScanMaxRangeM;
   long long total = 0;
   char title[256];
   std::snprintf(title, sizeof title,
@@ -272,8 +202,8 @@ int generate(Options o) {
   // Renders scan k into map and reports it; returns its point count.
   auto render = [&](int k, Clock::time_point& t) {
     t = Clock::now();
-    map.name = scan_name(k, o.scans);
-    noise.seed = scan_seed(o.seed, k);
+    map.name = spiral_scan_name(k, o.scans);
+    noise.seed = spiral_scan_seed(o.seed, k);
     render_scan(scene, camera_of(o, scene, poses[k], map.name), poses[k], min_range, max_range,
                 noise, map);
     return map.count_points();

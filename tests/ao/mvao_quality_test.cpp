@@ -1,0 +1,72 @@
+// The multi-scan MVAO of `aoscan scans` against the ray-traced Eq. 1 reference on small synthetic
+// scan sets (the harness of the aoscan-mvao-quality benchmark, support/mvao_quality.h): the
+// issue's quality target on three laser scans of the room, and what holds on three depth-camera
+// frames of the corner; on both, the border weight w_b smoothing the coverage borders.
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "support/mvao_quality.h"
+
+namespace aoscan {
+namespace {
+
+void print(const test::QualityRow& r) {
+  std::printf(
+      "%s (%dx%d): %lld evaluated points, %lld border pairs; r: SSAO %.4f, MVAO %.4f (3x3 %.4f, "
+      "without w_b %.4f); step error at coverage borders: w_b %.5f, without %.5f\n",
+      r.set.c_str(), r.map_width, r.map_height, r.evaluated, r.border_pairs, r.ssao_r, r.mvao_r,
+      r.mvao_3x3_r, r.mvao_no_wb_r, r.wb_step_error, r.no_wb_step_error);
+}
+
+TEST(MvaoQuality, ThreeLaserScansOfTheRoomMeetTheTarget) {
+  // 640 x 320 maps, 2 mm range noise, normals estimated from the points, the default AoConfig:
+  // the smallest maps of the three laser scans at which the r target holds with some margin
+  // (at 480 x 240 the MVAO reaches 0.918, at 560 x 280 0.932, SSAO + 0.046).
+  test::QualitySet set;
+  set.scene = "room";
+  set.camera = test::QualityCamera::kEquirect;
+  set.scans = 3;
+  set.equirect_height = 320;
+  const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
+  print(r);
+  // Measured: SSAO 0.878, MVAO 0.943 (3x3 0.945, without w_b 0.945); step error 0.0170 with w_b,
+  // 0.0202 without, over 1010 border pairs.
+  EXPECT_GT(r.evaluated, 50000);
+  EXPECT_GT(r.border_pairs, 500);
+  EXPECT_GE(r.mvao_r, 0.90);
+  EXPECT_GE(r.mvao_r, r.ssao_r + 0.05);
+  EXPECT_GE(r.mvao_3x3_r, 0.90);
+  // w_b makes the MVAO's step across coverage borders closer to the reference's.
+  EXPECT_LT(r.wb_step_error, 0.9 * r.no_wb_step_error);
+  // ... at a cost in r of 0.0025 here (up to 0.006 on the benchmark's 360-degree laser sets, and
+  // as much without range noise; depth cameras gain r from w_b: BENCHMARKS.md); tolerance 0.005.
+  EXPECT_GE(r.mvao_r, r.mvao_no_wb_r - 0.005);
+}
+
+TEST(MvaoQuality, ThreeDepthCameraFramesOfTheCornerGainLessButSmoothTheirSeams) {
+  // 320 x 240 frames (fx = 262.5) with 2 mm range noise through the depth preprocessing. Each
+  // frame's own SSAO is already close to the MVAO's ceiling here (with the scene's exact normals
+  // the SSAO reaches 0.91, the MVAO 0.94 on the benchmark's 640 x 480 frames), so the MVAO gains
+  // 0.024, not the 0.05 of the target; it does clear r 0.90. The frustum edges are coverage
+  // borders on open surfaces, the seams w_b is for.
+  test::QualitySet set;
+  set.scene = "corner";
+  set.camera = test::QualityCamera::kPinhole;
+  set.scans = 3;
+  set.pinhole_width = 320;
+  set.pinhole_height = 240;
+  const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
+  print(r);
+  // Measured: SSAO 0.890, MVAO 0.914 (3x3 0.917, without w_b 0.912); step error 0.0046 with
+  // w_b, 0.0107 without, over 1429 border pairs.
+  EXPECT_GT(r.evaluated, 20000);
+  EXPECT_GT(r.border_pairs, 1000);
+  EXPECT_GE(r.mvao_r, 0.90);
+  EXPECT_GE(r.mvao_r, r.ssao_r + 0.015);
+  EXPECT_LT(r.wb_step_error, 0.6 * r.no_wb_step_error);
+  EXPECT_GE(r.mvao_r, r.mvao_no_wb_r);
+}
+
+}  // namespace
+}  // namespace aoscan
