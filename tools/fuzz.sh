@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of fuzz/ (clang, ASan + UBSan) and runs every target, two at a time.
 # Usage: tools/fuzz.sh [--seconds N | --runs N] [--jobs J] [--merge] [--build-dir DIR] [TARGET...]
-#   --seconds N    fuzz each target for N seconds (default 60; the short form, CI: see .ci/run)
+#   --seconds N    fuzz each target for N seconds (default 60; the short form: README, Fuzzing)
 #   --runs N       fuzz each target for N executions (the long campaign: --runs 10000000); given
 #                  with --seconds, a target stops at whichever comes first
 #   --jobs J       targets fuzzed at once (default 2)

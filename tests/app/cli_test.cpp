@@ -298,6 +298,10 @@ TEST(Readme, DocumentsEveryConfigurationKey) {
 namespace {
 
 TEST(Cli, ReplayIsDeterministicForTheSameThreads) {
+#if defined(AOSCAN_SANITIZED)
+  GTEST_SKIP() << "two 60-frame replays compared byte for byte; the Release suite checks this, and "
+                  "the sanitizers see the same code in the shorter replays of this suite";
+#endif
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("determinism");
   const std::string source = quote(std::string(AOSCAN_SOURCE_DIR) + "/recordings/corner");
