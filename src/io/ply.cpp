@@ -402,6 +402,16 @@ void read_element(const std::string& path, const Element& e, const std::vector<i
                   TriangleMesh& mesh) {
   const bool is_vertex = e.name == "vertex";
   const char* what = e.name.c_str();
+  // Vertex `index`'s value `f` of the column with role `r` (0-2 position, 3-5 normal, 6 quality).
+  const auto store = [&mesh](std::uint64_t index, int r, float f) {
+    if (r < 3) {
+      mesh.vertices[index][r] = f;
+    } else if (r < 6) {
+      mesh.normals[index][r - 3] = f;
+    } else {
+      mesh.quality[index] = f;
+    }
+  };
   const bool fixed = std::none_of(e.properties.begin(), e.properties.end(),
                                   [](const Property& p) { return p.is_list; });
   if (!ascii && fixed) {
@@ -421,13 +431,7 @@ void read_element(const std::string& path, const Element& e, const std::vector<i
         const float f = e.properties[i].type == Type::kFloat32
                             ? load_f32(b + offset[i])
                             : static_cast<float>(DataReader::decode(e.properties[i].type, b + offset[i]));
-        if (r < 3) {
-          mesh.vertices[index][r] = f;
-        } else if (r < 6) {
-          mesh.normals[index][r - 3] = f;
-        } else {
-          mesh.quality[index] = f;
-        }
+        store(index, r, f);
       }
     }
     return;
@@ -438,17 +442,7 @@ void read_element(const std::string& path, const Element& e, const std::vector<i
       const Property& p = e.properties[i];
       if (!p.is_list) {
         const double v = reader.next(p.type, what, index);
-        if (is_vertex && role[i] >= 0) {
-          const int r = role[i];
-          const auto f = static_cast<float>(v);
-          if (r < 3) {
-            mesh.vertices[index][r] = f;
-          } else if (r < 6) {
-            mesh.normals[index][r - 3] = f;
-          } else {
-            mesh.quality[index] = f;
-          }
-        }
+        if (is_vertex && role[i] >= 0) store(index, role[i], static_cast<float>(v));
         continue;
       }
       const double count = reader.next(p.count_type, what, index);

@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -27,5 +28,9 @@ using RayCaster = std::function<std::optional<double>(
 double reference_obscurance(const RayCaster& cast, const Eigen::Vector3d& p,
                             const Eigen::Vector3d& n, double t_max_m, int strata_per_axis = 16,
                             double offset_m = 1e-6);
+
+/// Pearson correlation of an estimate `a` with a reference `b` over their first min(|a|, |b|)
+/// values: 0 when there are fewer than two or either is constant.
+double pearson_r(const std::vector<double>& a, const std::vector<double>& b);
 
 }  // namespace aoscan

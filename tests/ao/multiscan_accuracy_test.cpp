@@ -17,24 +17,6 @@
 namespace aoscan {
 namespace {
 
-double correlation(const std::vector<double>& a, const std::vector<double>& b) {
-  const double n = static_cast<double>(a.size());
-  double ma = 0, mb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    ma += a[i];
-    mb += b[i];
-  }
-  ma /= n;
-  mb /= n;
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-  }
-  return sab / std::sqrt(saa * sbb);
-}
-
 /// Pearson r of the SSAO and the MVAO against the reference at every third point of every scan.
 struct Accuracy {
   double ssao_r = 0.0;
@@ -59,7 +41,7 @@ Accuracy measure(const AnalyticScene& scene, const std::vector<ScanAo>& scans,
         multi.push_back(mvao[i](x, y));
       }
   }
-  return {correlation(ssao, ref), correlation(multi, ref), ref.size()};
+  return {pearson_r(ssao, ref), pearson_r(multi, ref), ref.size()};
 }
 
 TEST(MultiScanAccuracy, ThreeNoisyLaserScansOfTheCornerBeatEachScansOwnSsao) {

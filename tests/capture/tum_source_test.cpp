@@ -14,10 +14,16 @@
 
 #include "capture/png_depth.h"
 #include "io/tum.h"
+#include "support/error_message.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
+
+/// The message of the bad-input error (exit code 3) that `f` throws.
+std::string error_message(const std::function<void()>& f) {
+  return testing::error_message(f, ExitCode::kBadInput);
+}
 
 using testing::read_bytes;
 using testing::ScratchDir;
@@ -30,17 +36,6 @@ Image<std::uint16_t> frame_image(int i, int width = 16, int height = 12) {
     for (int x = 0; x < width; ++x)
       image(x, y) = static_cast<std::uint16_t>(1000 * i + 37 * x + 5 * y + (x == y ? 0 : 1));
   return image;
-}
-
-std::string error_message(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::kBadInput);
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return "";
 }
 
 /// Folder <scratch>/NAME with frames 0..5 listed at t = 1 + i/30 s: frame 2 missing, frame 3

@@ -9,11 +9,13 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
+#include "support/error_message.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
 
+using testing::error_message;
 using testing::read_bytes;
 using testing::ScratchDir;
 using testing::write_text;
@@ -29,16 +31,6 @@ TriangleMesh square() {
   m.quality = {0.0f, 0.25f, 0.5f, 1.0f};
   m.faces = {{0, 1, 2}, {0, 2, 3}};
   return m;
-}
-
-std::string error_message(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return "";
 }
 
 float float_at(const std::string& bytes, std::size_t offset) {

@@ -11,23 +11,15 @@
 
 #include "core/status.h"
 #include "io/ply.h"
+#include "support/error_message.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
 
+using testing::error_message;
 using testing::read_bytes;
 using testing::ScratchDir;
-
-std::string error_message(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return "";
-}
 
 /// Points of every magnitude (and their normals), the same on every run.
 void cloud(std::size_t n, std::vector<Eigen::Vector3f>& points,

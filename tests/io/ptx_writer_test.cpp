@@ -12,23 +12,15 @@
 
 #include "core/status.h"
 #include "io/ptx.h"
+#include "support/error_message.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
 
+using testing::error_message;
 using testing::read_bytes;
 using testing::ScratchDir;
-
-std::string error_message(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return "";
-}
 
 Pose registration(double yaw, const Eigen::Vector3d& t) {
   return Pose(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() *

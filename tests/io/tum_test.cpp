@@ -10,25 +10,20 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
+#include "support/error_message.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
 namespace {
 
+/// The message of the bad-input error (exit code 3) that `f` throws.
+std::string error_message(const std::function<void()>& f) {
+  return testing::error_message(f, ExitCode::kBadInput);
+}
+
 using testing::read_bytes;
 using testing::ScratchDir;
 using testing::write_text;
-
-std::string error_message(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::kBadInput);
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return "";
-}
 
 Pose test_pose(int i) {
   const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -1.0 + 0.1 * i, 0.5).normalized();

@@ -51,16 +51,12 @@ void write_laser_cloud(const std::string& path, const Eigen::Vector3d& position,
   write_ply(path, cloud);
 }
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
-TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
-  ScratchDir dir;
+/// Two laser clouds of the corner scene (a.ply, b.ply) and the manifest set.yaml that places them
+/// (each cloud's frame sits 1 m below its scanner: pose = the frame's place in the world); returns
+/// the manifest's path.
+std::string write_two_laser_scans(const ScratchDir& dir) {
   write_laser_cloud(dir.file("a.ply"), {2.6, 1.2, 1.4});
   write_laser_cloud(dir.file("b.ply"), {1.1, 2.7, 1.6});
-  // Each cloud's frame sits 1 m below its scanner: pose = the frame's place in the world.
   write_text(dir.file("set.yaml"), R"(scans:
   - points: a.ply
     scanner: [0, 0, 1]
@@ -69,8 +65,19 @@ TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
     scanner: [0, 0, 1]
     pose: {t: [1.1, 2.7, 0.6], q: [0, 0, 0, 1]}
 )");
+  return dir.file("set.yaml");
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
+  ScratchDir dir;
+  const std::string manifest = write_two_laser_scans(dir);
   ScansOptions options;
-  options.inputs = {dir.file("set.yaml")};
+  options.inputs = {manifest};
   options.out_dir = dir.file("out");
   const ScansResult r = run_scans(options);
   ASSERT_EQ(r.scans.size(), 2u);
@@ -216,18 +223,9 @@ TEST(ScanSet, InputsThatHoldNoScanAreErrors) {
 
 TEST(ScanSet, TheMeshOfTheScansLiesOnTheSurfaceAndTakesTheAoOfItsNearestScanPoints) {
   ScratchDir dir;
-  write_laser_cloud(dir.file("a.ply"), {2.6, 1.2, 1.4});
-  write_laser_cloud(dir.file("b.ply"), {1.1, 2.7, 1.6});
-  write_text(dir.file("set.yaml"), R"(scans:
-  - points: a.ply
-    scanner: [0, 0, 1]
-    pose: {t: [2.6, 1.2, 0.4], q: [0, 0, 0, 1]}
-  - points: b.ply
-    scanner: [0, 0, 1]
-    pose: {t: [1.1, 2.7, 0.6], q: [0, 0, 0, 1]}
-)");
+  const std::string manifest = write_two_laser_scans(dir);
   ScansOptions options;
-  options.inputs = {dir.file("set.yaml")};
+  options.inputs = {manifest};
   options.out_dir = dir.file("out");
   options.show_progress = false;
   options.mesh = true;

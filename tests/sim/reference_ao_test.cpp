@@ -30,6 +30,14 @@ double smoothstep(double d, double t_max) {
   return u * u * (3.0 - 2.0 * u);
 }
 
+TEST(ReferenceAo, PearsonRExactCases) {
+  EXPECT_NEAR(pearson_r({1, 2, 3, 4}, {2, 4, 6, 8}), 1.0, 1e-12);
+  EXPECT_NEAR(pearson_r({1, 2, 3, 4}, {-1, -2, -3, -4}), -1.0, 1e-12);
+  EXPECT_EQ(pearson_r({1, 1, 1}, {1, 2, 3}), 0.0);   // constant: 0, not a division by zero
+  EXPECT_EQ(pearson_r({1}, {2}), 0.0);               // fewer than two values
+  EXPECT_NEAR(pearson_r({1, 2, 3, 9}, {2, 4, 6}), 1.0, 1e-12);  // the first min(|a|, |b|)
+}
+
 TEST(ReferenceAo, OpenPlaneIsExactlyOne) {
   const AnalyticScene plane = AnalyticScene::make("plane");
   EXPECT_EQ(reference_obscurance(caster(plane), {0.3, 0.0, -0.2}, {0.0, -1.0, 0.0}, 0.2), 1.0);

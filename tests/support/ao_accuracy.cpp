@@ -31,14 +31,9 @@ AoScore score(const std::vector<double>& a, const std::vector<double>& b) {
   double ma = 0, mb = 0;
   for (std::size_t i = 0; i < a.size(); ++i) ma += a[i], mb += b[i];
   ma /= n, mb /= n;
-  double sab = 0, saa = 0, sbb = 0, se = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-    se += (a[i] - b[i]) * (a[i] - b[i]);
-  }
-  s.r = sab / std::sqrt(saa * sbb);
+  double se = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) se += (a[i] - b[i]) * (a[i] - b[i]);
+  s.r = pearson_r(a, b);
   s.bias = ma - mb;
   s.rmse = std::sqrt(se / n);
   return s;

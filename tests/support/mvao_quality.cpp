@@ -269,25 +269,6 @@ std::vector<Image<std::uint8_t>> coverage_counts(const std::vector<ScanAo>& scan
   return counts;
 }
 
-double pearson_r(const std::vector<double>& a, const std::vector<double>& b) {
-  const std::size_t n = std::min(a.size(), b.size());
-  if (n == 0) return 0.0;
-  double ma = 0.0, mb = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    ma += a[i];
-    mb += b[i];
-  }
-  ma /= static_cast<double>(n);
-  mb /= static_cast<double>(n);
-  double sab = 0.0, saa = 0.0, sbb = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-  }
-  return saa > 0.0 && sbb > 0.0 ? sab / std::sqrt(saa * sbb) : 0.0;
-}
-
 QualityRow measure_mvao_quality(const QualitySet& set, const QualityOptions& options) {
   if (options.eval_step < 1) throw usage_error("the evaluation step must be at least 1");
   const PreparedSet prepared = prepare_quality_set(set, options);

@@ -90,9 +90,6 @@ MultiScanParams quality_params(const PreparedSet& prepared, const QualityOptions
 std::vector<Image<std::uint8_t>> coverage_counts(const std::vector<ScanAo>& scans,
                                                  const MultiScanParams& params);
 
-/// Pearson correlation of two equally long series (0 when either is constant).
-double pearson_r(const std::vector<double>& a, const std::vector<double>& b);
-
 /// What measure_mvao_quality() found on one set.
 struct QualityRow {
   std::string set;

@@ -149,12 +149,6 @@ TEST(MeshEval, OffsetCopyHasThatAccuracyAndFullCompleteness) {
 namespace aoscan::eval {
 namespace {
 
-TEST(AoEval, PearsonExactCases) {
-  EXPECT_NEAR(pearson({1, 2, 3, 4}, {2, 4, 6, 8}), 1.0, 1e-12);
-  EXPECT_NEAR(pearson({1, 2, 3, 4}, {-1, -2, -3, -4}), -1.0, 1e-12);
-  EXPECT_EQ(pearson({1, 1, 1}, {1, 2, 3}), 0.0);
-}
-
 TEST(AoEval, AffineCopyOfTheReferenceCorrelatesPerfectly) {
   const AnalyticScene scene = AnalyticScene::make("corner");
   TriangleMesh mesh = scene.to_mesh();

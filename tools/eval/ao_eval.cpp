@@ -33,25 +33,6 @@ Eigen::Vector3d ray_origin(const AnalyticScene& scene, const SurfacePoint& s) {
 
 }  // namespace
 
-double pearson(const std::vector<double>& a, const std::vector<double>& b) {
-  const std::size_t n = std::min(a.size(), b.size());
-  if (n < 2) return 0;
-  double ma = 0, mb = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    ma += a[i];
-    mb += b[i];
-  }
-  ma /= static_cast<double>(n);
-  mb /= static_cast<double>(n);
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-  }
-  return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
-}
-
 RayCaster scene_ray_caster(const AnalyticScene& scene) {
   return [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                   double t_max) -> std::optional<double> {
@@ -94,7 +75,7 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
   r.rmse = std::sqrt(sq / n);
   r.mean_mesh = sm / n;
   r.mean_reference = sr / n;
-  r.pearson_r = pearson(mesh_ao, reference);
+  r.pearson_r = pearson_r(mesh_ao, reference);
   return r;
 }
 

@@ -48,7 +48,4 @@ RayCaster scene_ray_caster(const AnalyticScene& scene);
 /// written is a usage_error naming it.
 void write_ao_pairs_csv(const std::string& path, const AoEvalResult& result);
 
-/// Pearson correlation of two equally long sequences (0 when either is constant).
-double pearson(const std::vector<double>& a, const std::vector<double>& b);
-
 }  // namespace aoscan::eval
