@@ -2,6 +2,8 @@
 # Installs dependencies, builds aoscan and its tests, and runs the whole suite with CTest.
 # Usage: tools/test.sh            Release build in build/
 #        tools/test.sh --sanitize AddressSanitizer + UndefinedBehaviorSanitizer build in build-asan/
+#        tools/test.sh --sanitize SUITE...  the same for some suites only (io, ao, pipeline, ...:
+#                                 the folders of tests/; CI leaves out app and render)
 #        tools/test.sh --tsan     ThreadSanitizer build in build-tsan/ of the suites that start
 #                                 threads (not in CI: it does not fit its time budget)
 set -euo pipefail
@@ -16,6 +18,12 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   flags=(-DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1" -DAOSCAN_SANITIZE=ON)
   # The suites and what they run; the benchmarks and evaluation tools are built by the Release run.
   targets=(aoscan_tests)
+  shift
+  if [[ $# -gt 0 ]]; then
+    targets=()
+    for suite in "$@"; do targets+=("${suite}_tests"); done
+    only_labels="^($(IFS='|'; echo "$*"))\$"
+  fi
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
   export LSAN_OPTIONS="suppressions=$root/tools/lsan.supp"
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
@@ -42,6 +50,7 @@ fi
 ctest_cmd=(ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)")
 # Suites left unbuilt (--tsan) register a *_NOT_BUILT placeholder: skip those.
 [[ -n "${targets:-}" ]] && ctest_cmd+=(-E '_NOT_BUILT$')
+[[ -n "${only_labels:-}" ]] && ctest_cmd+=(-L "$only_labels")
 if command -v xvfb-run > /dev/null; then
   xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" "${ctest_cmd[@]}"
 else
