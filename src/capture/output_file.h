@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "core/checked_close.h"
 #include "core/status.h"
 #include "io/atomic_write.h"
 
@@ -29,10 +30,8 @@ inline OutputFile open_output(const std::string& path, const char* mode = "wb") 
 
 /// Closes `file`, throwing when buffered data could not be written.
 inline void close_checked(OutputFile& file, const std::string& path) {
-  if (!file) return;
-  const bool failed = std::ferror(file.get()) != 0;
-  const int rc = std::fclose(file.release());
-  if (failed || rc != 0) throw_write_failed(path);
+  std::FILE* f = file.release();
+  close_checked(f, path);
 }
 
 /// Readies `dir` for a new recording or dump and returns it without trailing slashes: refuses

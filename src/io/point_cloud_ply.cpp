@@ -4,6 +4,7 @@
 
 #include <cstring>
 
+#include "core/checked_close.h"
 #include "core/status.h"
 
 namespace aoscan {
@@ -63,10 +64,7 @@ void PointCloudPlyWriter::flush() {
 void PointCloudPlyWriter::close() {
   if (!file_) return;
   flush();
-  const bool failed = std::ferror(file_) != 0;
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (rc != 0 || failed) throw_write_failed(path_);
+  close_checked(file_, path_);
   if (added_ != count_)
     throw Error(ExitCode::kFailure, path_ + ": " + std::to_string(added_) + " points written, " +
                                         std::to_string(count_) + " announced");

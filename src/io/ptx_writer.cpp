@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/checked_close.h"
 #include "core/status.h"
 
 namespace aoscan {
@@ -100,10 +101,7 @@ void PtxWriter::add_missing() {
 void PtxWriter::close() {
   if (!file_) return;
   flush();
-  const bool failed = std::ferror(file_) != 0;
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (rc != 0 || failed) throw_write_failed(path_);
+  close_checked(file_, path_);
   if (cells_left_ != 0)
     throw Error(ExitCode::kFailure,
                 path_ + ": the last scan misses " + std::to_string(cells_left_) + " cells");

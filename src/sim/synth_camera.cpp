@@ -330,6 +330,10 @@ Pose look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Ei
 }
 
 Intrinsics SynthParams::intrinsics() const {
+  return synth_intrinsics(width, height);
+}
+
+Intrinsics synth_intrinsics(int width, int height) {
   Intrinsics k;
   k.width = width;
   k.height = height;

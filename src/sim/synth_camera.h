@@ -52,9 +52,13 @@ struct SynthParams {
   SynthTrajectory trajectory = SynthTrajectory::kOrbit;
   double fps = 30.0;  ///< frame rate in (0, 1000]; frame i is at time i / fps (s)
 
-  /// fx = fy = 525 * width / 640, cx = (width - 1) / 2, cy = (height - 1) / 2.
+  /// synth_intrinsics(width, height).
   Intrinsics intrinsics() const;
 };
+
+/// The simulated depth camera's intrinsics at width x height: fx = fy = 525 * width / 640,
+/// cx = (width - 1) / 2, cy = (height - 1) / 2 (a Kinect's at 640 x 480).
+Intrinsics synth_intrinsics(int width, int height);
 
 /// Raw units per metre of synthetic frames.
 inline constexpr double kSynthDepthScale = 5000.0;

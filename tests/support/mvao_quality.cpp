@@ -29,7 +29,6 @@ namespace {
 /// border_distance(): a Laplacian edge must exceed this share of the pixel's depth (scan_set.cpp).
 constexpr float kMinEdgeRatio = 0.01f;
 /// Depth frames: raw units per metre (aoscan-scanset's depth PNGs and the synthetic camera's).
-constexpr double kDepthScale = 5000.0;
 /// Evaluated points: the nearest scene surface point must lie within this (m).
 constexpr double kSurfaceMatchM = 0.05;
 /// Reference rays start this far off the surface (m).
@@ -56,28 +55,18 @@ const char* camera_name(QualityCamera c) {
   return "?";
 }
 
-Intrinsics pinhole_intrinsics(const QualitySet& set) {
-  Intrinsics k;
-  k.width = set.pinhole_width;
-  k.height = set.pinhole_height;
-  k.fx = k.fy = 525.0 * set.pinhole_width / 640.0;
-  k.cx = 0.5 * (set.pinhole_width - 1);
-  k.cy = 0.5 * (set.pinhole_height - 1);
-  return k;
-}
-
 /// A depth camera's scan as `aoscan scans` reads a depth image: raw 16-bit depth, preprocessed
 /// with the default configuration, into a pinhole range map (normals zero).
 void depth_camera_scan(const AnalyticScene& scene, const QualitySet& set, const Pose& pose,
                        std::uint64_t seed, RangeMap& map) {
   DepthFrame frame;
-  frame.intrinsics = pinhole_intrinsics(set);
-  frame.depth_scale = kDepthScale;
+  frame.intrinsics = synth_intrinsics(set.pinhole_width, set.pinhole_height);
+  frame.depth_scale = kSynthDepthScale;
   if (set.noise == QualityNoise::kKinect) {
     SynthRenderOptions o;
     o.noise = SynthNoise::kKinect;
     o.seed = seed;
-    o.depth_scale = kDepthScale;
+    o.depth_scale = kSynthDepthScale;
     render_synth_depth(scene, frame.intrinsics, pose, o, frame.depth);
   } else {  // the laser model, written as aoscan-scanset writes a depth PNG
     RangeMap exact;
@@ -91,7 +80,7 @@ void depth_camera_scan(const AnalyticScene& scene, const QualitySet& set, const 
     for (int y = 0; y < frame.intrinsics.height; ++y)
       for (int x = 0; x < frame.intrinsics.width; ++x) {
         const double raw =
-            exact.has_point(x, y) ? std::round(exact.points(x, y).z() * kDepthScale) : 0.0;
+            exact.has_point(x, y) ? std::round(exact.points(x, y).z() * kSynthDepthScale) : 0.0;
         frame.depth(x, y) = raw >= 1.0 && raw <= 65535.0 ? static_cast<std::uint16_t>(raw) : 0;
       }
   }

@@ -25,6 +25,7 @@
 #include "io/point_cloud_ply.h"
 #include "io/ptx_writer.h"
 #include "sim/scan_placement.h"
+#include "sim/synth_camera.h"
 #include "sim/synth_scanner.h"
 #include "sim/synth_scene.h"
 
@@ -34,8 +35,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-/// Depth PNGs: raw units per metre (0.2 mm steps, up to 13.1 m; the TUM convention).
-constexpr double kPngDepthScale = 5000.0;
 /// The equirectangular map that measures the share of rays that hit something (--points).
 constexpr int kCoverageHeight = 64;
 
@@ -70,13 +69,7 @@ std::string pose_row_major(const Pose& T) {
 ScanCamera camera_of(const Options& o, const AnalyticScene& scene, const Pose& pose,
                      const std::string& name) {
   if (o.camera == "pinhole") {
-    Intrinsics k;
-    k.width = o.width;
-    k.height = o.height;
-    k.fx = k.fy = 525.0 * o.width / 640.0;
-    k.cx = 0.5 * (o.width - 1);
-    k.cy = 0.5 * (o.height - 1);
-    return ScanCamera::make_pinhole(k);
+    return ScanCamera::make_pinhole(synth_intrinsics(o.width, o.height));
   }
   if (o.points == 0) return ScanCamera::make_equirectangular(o.height);
   RangeMap probe;
@@ -109,14 +102,14 @@ void write_cloud(const std::string& path, const RangeMap& map, long long count, 
   });
 }
 
-/// Writes a pinhole map as a 16-bit depth PNG (z * kPngDepthScale; 0 where there is no point).
+/// Writes a pinhole map as a 16-bit depth PNG (z * kSynthDepthScale; 0 where there is no point).
 void write_depth_png(const std::string& path, const RangeMap& map) {
   std::vector<std::uint16_t> row(static_cast<std::size_t>(map.camera.width));
   write_png(path, map.camera.width, map.camera.height, PngFormat::kGrey16,
             [&](int y) -> const void* {
               for (int x = 0; x < map.camera.width; ++x) {
                 const double raw =
-                    map.has_point(x, y) ? std::round(map.points(x, y).z() * kPngDepthScale) : 0.0;
+                    map.has_point(x, y) ? std::round(map.points(x, y).z() * kSynthDepthScale) : 0.0;
                 row[static_cast<std::size_t>(x)] =
                     raw >= 1.0 && raw <= 65535.0 ? static_cast<std::uint16_t>(raw) : 0;
               }
@@ -248,7 +241,7 @@ int generate(Options o) {
         char camera[256];
         std::snprintf(camera, sizeof camera,
                       "{fx: %.17g, fy: %.17g, cx: %.17g, cy: %.17g, depth_scale: %g}", c.fx, c.fy,
-                      c.cx, c.cy, kPngDepthScale);
+                      c.cx, c.cy, kSynthDepthScale);
         manifest += "    depth: " + map.name + ".png\n    camera: " + camera + "\n";
       }
       manifest += "    pose: " + pose_row_major(poses[k]) + "\n";
