@@ -2,6 +2,8 @@
 /// @brief Rigid transforms named by their frames: `T_world_camera` maps camera coordinates to world.
 #pragma once
 
+#include <cmath>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -50,5 +52,16 @@ class Pose {
   Eigen::Matrix3d R_ = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t_ = Eigen::Vector3d::Zero();
 };
+
+/// The distance between two poses' positions (their translations' units).
+inline double translation_between(const Pose& a, const Pose& b) {
+  return (a.translation() - b.translation()).norm();
+}
+
+/// The angle of the rotation that takes pose a's orientation to pose b's (degrees, in [0, 180]).
+inline double rotation_between_deg(const Pose& a, const Pose& b) {
+  return std::abs(Eigen::AngleAxisd(a.rotation().transpose() * b.rotation()).angle()) * 180.0 /
+         M_PI;
+}
 
 }  // namespace aoscan

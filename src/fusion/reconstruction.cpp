@@ -27,7 +27,14 @@ Pose blend(const Pose& a, const Pose& b, double w) {
 
 }  // namespace
 
-Reconstruction::Reconstruction(const ReconstructionConfig& config) : config_(config), volume_(config.fusion) {}
+Reconstruction::Reconstruction(const ReconstructionConfig& config)
+    : config_(config), volume_(config.fusion), relocaliser_(config) {}
+
+int Reconstruction::model_level(const Intrinsics& intrinsics) const {
+  int level = std::clamp(config_.fusion.raycast_level, 0, kPyramidLevels - 1);
+  while (level > 0 && intrinsics.scaled(level).width < kMinRaycastWidth) --level;
+  return level;
+}
 
 FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
                                    std::shared_ptr<RaycastResult> raycast_out, bool integrate) {
@@ -36,7 +43,7 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.new_model = true;
     step.status = TrackingStatus::kGood;
     step.T_world_camera = T_world_last_;
-  } else {
+  } else if (!lost_) {
     const RaycastResult& reference = first_frame_reference_ ? *first_frame_reference_ : *model_;
     // The motion prior of ICP's weakly constrained directions: the previous pose moved on by
     // the smoothed camera velocity (constant velocity in the camera frame).
@@ -48,6 +55,31 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.status = step.icp.status;
     step.T_world_camera =
         step.icp.status == TrackingStatus::kLost ? T_world_last_ : step.icp.T_world_camera;
+    if (step.status == TrackingStatus::kLost) {
+      lost_ = true;
+      ++losses_;
+    }
+  }
+  const int level = model_level(intrinsics);
+  const Intrinsics model_intrinsics = intrinsics.scaled(level);
+  if (lost_) {
+    // Nothing is fused until a pose passes the check: from the last good pose or a keyframe's.
+    step.relocalisation =
+        relocaliser_.relocalise(frame.pyramid, model_intrinsics, level, volume_, model_);
+    if (step.relocalisation.accepted) {
+      lost_ = false;
+      ++relocalisations_;
+      step.relocalised = true;
+      step.icp = step.relocalisation.icp;
+      step.status = step.icp.status;
+      step.T_world_camera = step.relocalisation.T_world_camera;
+      first_frame_reference_.reset();
+    } else {
+      step.status = TrackingStatus::kLost;
+      step.T_world_camera = T_world_last_;
+    }
+    has_velocity_ = false;
+    last_is_previous_ = false;
   }
   if (step.status == TrackingStatus::kLost) {
     ++frames_lost_;
@@ -78,11 +110,10 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
   }
   last_is_previous_ = true;
   T_world_last_ = step.T_world_camera;
+  if (step.integrated && step.status == TrackingStatus::kGood)
+    relocaliser_.observe(frame.pyramid, step.T_world_camera);
   // The model is raycast at a pyramid level of the frame; a frame just fused at this pose is the
   // depth hint (its pyramid depth at that level has exactly the raycast's pixel grid).
-  int level = std::clamp(config_.fusion.raycast_level, 0, kPyramidLevels - 1);
-  while (level > 0 && intrinsics.scaled(level).width < kMinRaycastWidth) --level;
-  const Intrinsics model_intrinsics = intrinsics.scaled(level);
   const Image<float>& hint = frame.pyramid.depth_m[level];
   const bool use_hint = step.integrated && hint.width() == model_intrinsics.width &&
                         hint.height() == model_intrinsics.height;
@@ -106,6 +137,12 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
   return step;
 }
 
+RelocalisationResult Reconstruction::relocalise(const PreprocessedFrame& frame,
+                                                const Intrinsics& intrinsics) {
+  const int level = model_level(intrinsics);
+  return relocaliser_.relocalise(frame.pyramid, intrinsics.scaled(level), level, volume_, nullptr);
+}
+
 void Reconstruction::reset() {
   volume_.reset();
   integrator_.reset();
@@ -115,6 +152,8 @@ void Reconstruction::reset() {
   velocity_ = Pose();
   has_velocity_ = false;
   last_is_previous_ = false;
+  lost_ = false;
+  relocaliser_.database().clear();
 }
 
 TriangleMesh Reconstruction::extract_mesh() const {

@@ -10,6 +10,7 @@
 #include "core/pose.h"
 #include "fusion/preprocess/preprocess.h"
 #include "fusion/reconstruction_config.h"
+#include "fusion/relocaliser.h"
 #include "fusion/tracking/icp.h"
 #include "fusion/tsdf/raycast.h"
 #include "fusion/tsdf/tsdf_integrator.h"
@@ -23,6 +24,9 @@ struct FusionStep {
   Pose T_world_camera;      ///< the tracked pose (the last good pose when lost)
   bool integrated = false;  ///< the frame was fused into the TSDF
   bool new_model = false;   ///< the first frame of a model (after start or reset): not tracked
+  bool relocalised = false;  ///< tracking had been lost and this frame's pose passed the check
+  /// While lost: the relocalisation attempt on this frame (candidates, the check's figures).
+  RelocalisationResult relocalisation;
   IcpResult icp;            ///< tracking details (empty for the first frame of a model)
   IntegrateStats integrate;
 };
@@ -38,6 +42,9 @@ class Reconstruction {
   /// next tracking reference (keep it unchanged afterwards: it is shared from then on). When lost,
   /// `raycast_out` is left untouched and the reference stays the last good one, so tracking keeps
   /// trying from there and recovers when the camera comes back.
+  /// Once a frame is lost the take stays lost (nothing fused) until a frame is relocalised: from
+  /// the last good pose or from the keyframes most like it (Relocaliser), its pose must pass the
+  /// relocalisation check. Every well-tracked frame may become a keyframe.
   /// While the model holds its first frame alone, the next frame is tracked against that frame's
   /// filtered maps at the raycast's resolution (its pyramid level) instead of the raycast.
   /// With `integrate` false (paused) the frame is tracked and raycast but not fused. The raycast
@@ -46,6 +53,11 @@ class Reconstruction {
   /// level as its depth hint.
   FusionStep process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
                      std::shared_ptr<RaycastResult> raycast_out, bool integrate = true);
+
+  /// A kidnapped camera: `frame` relocalised against the model from the keyframes alone (not
+  /// from the last good pose), with the check of process(); the reconstruction is left as it
+  /// was. For measuring relocalisation.
+  RelocalisationResult relocalise(const PreprocessedFrame& frame, const Intrinsics& intrinsics);
 
   /// Starts a new model: empty TSDF, identity pose for the next frame.
   void reset();
@@ -57,13 +69,24 @@ class Reconstruction {
   TriangleMesh extract_mesh() const;
   /// The current tracking reference (null before the first frame and after reset()).
   std::shared_ptr<const RaycastResult> model() const { return model_; }
+  /// Frames not fused because tracking was lost (or the model had no depth yet).
   std::size_t frames_lost() const { return frames_lost_; }
+  /// Times tracking was lost (a good take followed by a lost frame).
+  std::size_t losses() const { return losses_; }
+  /// Times a lost take was relocalised.
+  std::size_t relocalisations() const { return relocalisations_; }
+  /// Tracking is lost: frames are not fused until one is relocalised.
+  bool lost() const { return lost_; }
+  const Relocaliser& relocaliser() const { return relocaliser_; }
+  /// The resolution and pyramid level of the model raycast for frames of `intrinsics`.
+  int model_level(const Intrinsics& intrinsics) const;
 
  private:
   ReconstructionConfig config_;
   TsdfVolume volume_;
   TsdfIntegrator integrator_;
   IcpWorkspace icp_workspace_;
+  Relocaliser relocaliser_;
   std::shared_ptr<const RaycastResult> model_;
   /// The first frame's own filtered maps, tracked against instead of model_ while the model holds
   /// that frame alone (null otherwise).
@@ -74,7 +97,10 @@ class Reconstruction {
   Pose velocity_;
   bool has_velocity_ = false;
   bool last_is_previous_ = false;  ///< T_world_last_ is the previous frame's pose (it was tracked)
+  bool lost_ = false;
   std::size_t frames_lost_ = 0;
+  std::size_t losses_ = 0;
+  std::size_t relocalisations_ = 0;
 };
 
 }  // namespace aoscan

@@ -37,6 +37,7 @@ struct Config : ReconstructionConfig {
     v.section("preprocess", preprocess);
     v.section("fusion", fusion);
     v.section("tracking", tracking);
+    v.section("relocalisation", relocalisation);
     v.section("ao", ao);
     v.section("pipeline", pipeline);
   }

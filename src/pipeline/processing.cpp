@@ -67,6 +67,9 @@ nlohmann::json VolumeStats::to_json() const {
 
 nlohmann::json ProcessingStats::to_json() const {
   return {{"frames_tracking_lost", frames_tracking_lost},
+          {"tracking_losses", tracking_losses},
+          {"relocalisations", relocalisations},
+          {"keyframes", keyframes},
           {"ao_frames_skipped_live", ao_frames_skipped_live},
           {"model_resets", model_resets},
           {"outputs_written_on_request", outputs_written_on_request},
@@ -122,6 +125,20 @@ Status Processing::track(FrameWork& frame) {
       "frame {}: tracking {}, inliers {:.2f}, residual {:.1f} mm, moved {:.1f} mm {:.2f} deg",
       frame.raw.sequence, to_string(frame.fusion.status), icp.inlier_ratio,
       icp.rms_residual_m * 1e3, icp.translation_m * 1e3, icp.rotation_deg);
+  const bool was_lost = lost_;
+  lost_ = reconstruction_.lost();
+  if (lost_ && !was_lost) {
+    lost_since_ = frame.raw.sequence;
+    spdlog::warn("frame {}: tracking lost; move back to a scanned area", frame.raw.sequence);
+  }
+  if (frame.fusion.relocalised)
+    spdlog::info("frame {}: relocalised {} ({} frames after tracking was lost)",
+                 frame.raw.sequence,
+                 frame.fusion.relocalisation.candidate_keyframe < 0
+                     ? std::string("from the last good pose")
+                     : "from keyframe " +
+                           std::to_string(frame.fusion.relocalisation.candidate_keyframe),
+                 frame.raw.sequence - lost_since_);
   if (frame.fusion.status == TrackingStatus::kLost) {
     ++frames_tracking_lost_;
     frame.raycast.reset();
@@ -200,8 +217,14 @@ void Processing::write_requested_outputs(FrameWork& frame) {
 }
 
 ProcessingStats Processing::stats() const {
-  return {frames_tracking_lost_, ao_shedder_.skipped(), model_resets_.load(),
-          outputs_written_.load(), frames_without_depth_.load()};
+  return {frames_tracking_lost_,
+          reconstruction_.losses(),
+          reconstruction_.relocalisations(),
+          reconstruction_.relocaliser().database().keyframes().size(),
+          ao_shedder_.skipped(),
+          model_resets_.load(),
+          outputs_written_.load(),
+          frames_without_depth_.load()};
 }
 
 GridStats Processing::grid_stats() const {

@@ -104,7 +104,10 @@ struct VolumeStats {
 
 /// What the stages counted (stats.json top-level keys).
 struct ProcessingStats {
-  std::size_t frames_tracking_lost = 0;
+  std::size_t frames_tracking_lost = 0;  ///< frames spent lost (not fused)
+  std::size_t tracking_losses = 0;       ///< times tracking was lost
+  std::size_t relocalisations = 0;       ///< times a lost take was relocalised
+  std::size_t keyframes = 0;             ///< in the relocalisation database at the end
   std::size_t ao_frames_skipped_live = 0;  ///< tracked frames without SSAO under live load
   std::size_t model_resets = 0;            ///< `r` commands carried out
   std::size_t outputs_written_on_request = 0;  ///< `s` commands carried out
@@ -196,6 +199,8 @@ class Processing {
   Image<std::uint32_t> view_slots_;  ///< the grid slots of the frame's pixels, for mvao_image()
   std::vector<StampedPose> trajectory_;
   std::size_t frames_tracking_lost_ = 0;
+  bool lost_ = false;           ///< tracking was lost after the last frame (track stage)
+  std::size_t lost_since_ = 0;  ///< the frame tracking was last lost at (for the log)
   std::atomic<bool> reset_requested_{false};
   std::atomic<bool> paused_{false};
   std::atomic<bool> write_requested_{false};

@@ -46,7 +46,7 @@ void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
   view.mvao = frame.mvao;
   view.raw_depth_m = frame.pre.depth_m;
   if (frame.fusion.status == TrackingStatus::kLost)
-    view.tracking_state = "lost";
+    view.tracking_state = kTrackingLostState;
   else if (frame.integration_paused)
     view.tracking_state = "paused";
   else

@@ -57,6 +57,9 @@ struct HudStats {
 /// it run at a pyramid level: a 320x240 raycast of a 640x480 frame); views enlarge them by pixel
 /// replication. depth_m, normals and mvao share one size. An image of another size, or empty,
 /// shows as no data. Camera frame: x right, y down, z forward (metres).
+/// The tracking state of a frame taken while tracking is lost: what the user should do.
+inline constexpr const char* kTrackingLostState = "lost - move back to a scanned area";
+
 struct ViewFrame {
   std::uint64_t sequence = 0;  ///< source frame index
   double timestamp_s = 0.0;    ///< source timestamp (s)
@@ -67,7 +70,7 @@ struct ViewFrame {
   Image<float> ssao;                  ///< this frame's SSAO in [0, 1], 1 = open
   Image<float> mvao;                  ///< AO from the MVAO grid in [0, 1]; NaN = unobserved
   Image<float> raw_depth_m;           ///< filtered input depth (m), 0 = invalid
-  std::string tracking_state = "ok";  ///< e.g. "ok", "lost", "paused"
+  std::string tracking_state = "ok";  ///< e.g. "good", kTrackingLostState, "paused"
   HudStats hud;
   /// The fused surface in the world frame with per-vertex AO (quality) and normals, for the orbit
   /// view; null or empty until the pipeline exports one. Shared: publishing it is cheap.

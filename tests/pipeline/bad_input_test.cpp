@@ -103,6 +103,9 @@ TEST(BadInput, AllInvalidFramesAreCountedAsLost) {
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(f.stats["frames_processed"], 20);
   EXPECT_EQ(lost(f), 5u);
+  EXPECT_EQ(f.stats["tracking_losses"], 1);  // lost once, for five frames ...
+  EXPECT_EQ(f.stats["relocalisations"], 1);  // ... and back with the first frame with depth
+  EXPECT_GT(f.stats["keyframes"].get<int>(), 0);
   ASSERT_EQ(f.trajectory.size(), 15u);
   for (const StampedPose& p : f.trajectory)  // the lost frames have no line
     EXPECT_FALSE(p.timestamp_s > 7.5 / 30.0 && p.timestamp_s < 12.5 / 30.0) << p.timestamp_s;
@@ -160,6 +163,8 @@ TEST(BadInput, AFarJumpWithoutReturnStaysLostAndIsReported) {
   const RunFiles f = run(scratch, "jump", frames(0, 12, 182, 190));
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 8u);
+  EXPECT_EQ(f.stats["tracking_losses"], 1);
+  EXPECT_EQ(f.stats["relocalisations"], 0);  // nothing mapped there: it stays lost
   EXPECT_EQ(f.trajectory.size(), 12u);
   expect_finite_outputs(f);
 }
@@ -173,6 +178,8 @@ TEST(BadInput, AFarJumpAndBackRecovers) {
   for (std::size_t i = 0; i < list.size(); ++i) list[i].timestamp_s = static_cast<double>(i) / 30;
   const RunFiles f = run(scratch, "jump_back", list);
   EXPECT_EQ(lost(f), 4u);
+  EXPECT_EQ(f.stats["tracking_losses"], 1);
+  EXPECT_EQ(f.stats["relocalisations"], 1);
   ASSERT_EQ(f.trajectory.size(), 20u);
   const Pose T_truth0_world = test::corner_frame(0).T_world_camera_gt->inverse();
   for (int i = 0; i < 20; ++i) {  // line i is frame i
@@ -190,6 +197,8 @@ TEST(BadInput, EmptyFirstFramesAreLostAndTheModelStartsAfterThem) {
   const RunFiles f = run(scratch, "empty_start", list);
   EXPECT_EQ(f.result.exit_code, ExitCode::kOk) << f.result.error;
   EXPECT_EQ(lost(f), 4u);
+  EXPECT_EQ(f.stats["tracking_losses"], 0);  // no model yet: nothing to lose
+  EXPECT_EQ(f.stats["relocalisations"], 0);
   ASSERT_EQ(f.trajectory.size(), 8u);
   // The world frame is the camera frame of the first frame with depth (frame 4).
   EXPECT_NEAR(f.trajectory[0].timestamp_s, 4.0 / 30.0, 1e-6);

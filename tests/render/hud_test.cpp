@@ -26,7 +26,7 @@ TEST(Hud, LinesShowTheNumbers) {
 
 TEST(Hud, FontCoversEverythingTheHudWrites) {
   ViewFrame f = testing::sphere_wall_frame(16, 12);
-  f.tracking_state = "lost";
+  f.tracking_state = kTrackingLostState;
   f.hud.integration_paused = true;
   for (int v = 0; v < kViewCount; ++v)
     for (const std::string& line : hud_lines(&f, static_cast<View>(v), 12.0))

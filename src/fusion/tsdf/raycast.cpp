@@ -396,6 +396,7 @@ void raycast_row_portable(TsdfSampler& sampler, const RaycastRows& rows, int y) 
                                 rows.truncation, setup.R_camera_world, rows.result);
       continue;
     }
+    if (rows.hinted_only) continue;
     detail::march(sampler, ray, s_begin, s_end, rows.voxel_size, rows.truncation,
                   setup.R_camera_world, rows.result, x, y);
   }
@@ -404,7 +405,7 @@ void raycast_row_portable(TsdfSampler& sampler, const RaycastRows& rows, int y) 
 /// raycast() with the AVX2 row loop (`simd`, the caller checked the CPU) or the portable one.
 void raycast_impl(const TsdfVolume& volume, const Intrinsics& intrinsics,
                   const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
-                  const Image<float>* depth_hint_m, bool simd) {
+                  const Image<float>* depth_hint_m, RaycastRays rays, bool simd) {
   detail::check_inputs(intrinsics, config);
   if (depth_hint_m != nullptr &&
       (depth_hint_m->width() != intrinsics.width || depth_hint_m->height() != intrinsics.height))
@@ -425,6 +426,7 @@ void raycast_impl(const TsdfVolume& volume, const Intrinsics& intrinsics,
   const RaySetup setup(volume, intrinsics, T_world_camera);
   const RaycastRows rows{setup,
                          depth_hint_m,
+                         depth_hint_m != nullptr && rays == RaycastRays::kHintedOnly,
                          zmin.data(),
                          zmax.data(),
                          tiles_x,
@@ -459,19 +461,20 @@ int count_hits(const Image<float>& depth) {
 }
 
 void raycast(const TsdfVolume& volume, const Intrinsics& intrinsics, const Pose& T_world_camera,
-             const FusionConfig& config, RaycastResult& result, const Image<float>* depth_hint_m) {
+             const FusionConfig& config, RaycastResult& result, const Image<float>* depth_hint_m,
+             RaycastRays rays) {
 #if defined(AOSCAN_RAYCAST_AVX2)
   const bool simd = cpu_has_avx2();
 #else
   const bool simd = false;
 #endif
-  raycast_impl(volume, intrinsics, T_world_camera, config, result, depth_hint_m, simd);
+  raycast_impl(volume, intrinsics, T_world_camera, config, result, depth_hint_m, rays, simd);
 }
 
 void raycast_portable(const TsdfVolume& volume, const Intrinsics& intrinsics,
                       const Pose& T_world_camera, const FusionConfig& config, RaycastResult& result,
-                      const Image<float>* depth_hint_m) {
-  raycast_impl(volume, intrinsics, T_world_camera, config, result, depth_hint_m, false);
+                      const Image<float>* depth_hint_m, RaycastRays rays) {
+  raycast_impl(volume, intrinsics, T_world_camera, config, result, depth_hint_m, rays, false);
 }
 
 }  // namespace aoscan

@@ -212,6 +212,7 @@ void raycast_row_avx2(TsdfSampler& sampler, const RaycastRows& rows, int y) {
       if (lanes.count == HintLanes::kLanes) flush();
       continue;
     }
+    if (rows.hinted_only) continue;
     march(sampler, ray, s_begin, s_end, rows.voxel_size, rows.truncation, setup.R_camera_world,
           rows.result, x, y);
   }

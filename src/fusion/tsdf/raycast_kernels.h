@@ -98,6 +98,7 @@ struct Bracket {
 struct RaycastRows {
   const RaySetup& setup;
   const Image<float>* depth_hint_m;  ///< null: no hint
+  bool hinted_only;                  ///< rays without a usable hint are not cast
   const float* zmin;                 ///< per tile: depth bounds of the allocated blocks
   const float* zmax;
   int tiles_x;

@@ -26,10 +26,6 @@ namespace {
 
 const Intrinsics kKinect{640, 480, 585.0, 585.0, 320.0, 240.0};
 
-double rotation_error_deg(const Pose& a, const Pose& b) {
-  return Eigen::AngleAxisd(a.rotation().transpose() * b.rotation()).angle() * 180.0 / M_PI;
-}
-
 /// The corner scene fused from pose A and raycast there.
 struct Tracked {
   test::Scene scene = test::corner_scene();
@@ -55,7 +51,7 @@ TEST(Icp, RecoversKnownSmallMotion) {
   const IcpResult r = icp(frame, t.model, t.A, TrackingConfig{});
   EXPECT_EQ(r.status, TrackingStatus::kGood) << to_string(r.status);
   EXPECT_LT((r.T_world_camera.translation() - B.translation()).norm(), 0.001);
-  EXPECT_LT(rotation_error_deg(r.T_world_camera, B), 0.1);
+  EXPECT_LT(rotation_between_deg(r.T_world_camera, B), 0.1);
   EXPECT_GT(r.inlier_ratio, 0.8);
   EXPECT_LT(r.rms_residual_m, 0.002);
   EXPECT_FALSE(r.degenerate);
@@ -69,7 +65,7 @@ TEST(Icp, RecoversMotionWithNoisyDepth) {
   const IcpResult r = icp(frame, t.model, t.A, TrackingConfig{});
   EXPECT_NE(r.status, TrackingStatus::kLost);
   EXPECT_LT((r.T_world_camera.translation() - B.translation()).norm(), 0.002);
-  EXPECT_LT(rotation_error_deg(r.T_world_camera, B), 0.1);
+  EXPECT_LT(rotation_between_deg(r.T_world_camera, B), 0.1);
 }
 
 TEST(Icp, EmptyFrameOrModelIsLostAndFinite) {
@@ -232,7 +228,7 @@ TEST(Icp, WallAndFloorTakeTheMotionAlongTheirEdgeFromThePrior) {
     EXPECT_NEAR(t.x(), prior.translation().x(), 0.001);
     EXPECT_NEAR(t.y(), B.translation().y(), 0.001);
     EXPECT_NEAR(t.z(), B.translation().z(), 0.001);
-    EXPECT_LT(rotation_error_deg(r.T_world_camera, B), 0.05);
+    EXPECT_LT(rotation_between_deg(r.T_world_camera, B), 0.05);
   }
 }
 

@@ -171,6 +171,36 @@ TEST(Raycast, DepthHintFindsTheSameSurface) {
   EXPECT_THROW(raycast(volume, kKinect, pose, FusionConfig{}, with, &depth_small()), Error);
 }
 
+TEST(Raycast, HintedOnlyCastsExactlyTheHintedRays) {
+  // A hint with a hole: with RaycastRays::kHintedOnly the hole stays empty and every other pixel
+  // is the hinted raycast's, in the fast and the portable version alike.
+  const FusedScene fused;
+  const Pose pose = test::look_at({0.2, -0.1, 0.05}, {0, 0.1, 1.6});
+  Image<float> hint;
+  test::render(fused.scene, kKinect, pose, hint, nullptr, 0.003, 7);
+  for (int y = 100; y < 200; ++y)
+    for (int x = 200; x < 360; ++x) hint(x, y) = 0.0f;
+  RaycastResult all, only, only_portable;
+  raycast(fused.volume, kKinect, pose, FusionConfig{}, all, &hint);
+  raycast(fused.volume, kKinect, pose, FusionConfig{}, only, &hint, RaycastRays::kHintedOnly);
+  raycast_portable(fused.volume, kKinect, pose, FusionConfig{}, only_portable, &hint,
+                   RaycastRays::kHintedOnly);
+  int hole_hits_all = 0;
+  for (int y = 0; y < kKinect.height; ++y)
+    for (int x = 0; x < kKinect.width; ++x) {
+      if (hint(x, y) > 0.0f) {
+        ASSERT_EQ(only.depth_m(x, y), all.depth_m(x, y)) << x << "," << y;
+        ASSERT_EQ(only.maps.normals(x, y), all.maps.normals(x, y)) << x << "," << y;
+      } else {
+        ASSERT_EQ(only.depth_m(x, y), 0.0f) << x << "," << y;
+        hole_hits_all += all.depth_m(x, y) > 0.0f;
+      }
+      ASSERT_EQ(only_portable.depth_m(x, y), only.depth_m(x, y)) << x << "," << y;
+    }
+  EXPECT_GT(hole_hits_all, 100 * 160 / 2);  // kAll marches the hole's rays and finds the scene
+  EXPECT_EQ(only.hits, count_hits(only.depth_m));
+}
+
 TEST(Raycast, HintedRaysSearchedEightAtATimeMatchTheOneAtATimeSearch) {
   // raycast() searches the hinted rays of a row eight per AVX2 vector (on a CPU with AVX2);
   // raycast_portable() one at a time. Same hits, vertices and normals bit for bit: with the
