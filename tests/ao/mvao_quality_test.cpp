@@ -20,6 +20,10 @@ void print(const test::QualityRow& r) {
 }
 
 TEST(MvaoQuality, ThreeLaserScansOfTheRoomMeetTheTarget) {
+#if defined(AOSCAN_SANITIZED)
+  GTEST_SKIP() << "an accuracy measurement on three large scans; too slow under the sanitizers, "
+                  "which run the same harness on the depth-camera set below";
+#endif
   // 640 x 320 maps, 2 mm range noise, normals estimated from the points, the default AoConfig:
   // the smallest maps of the three laser scans at which the r target holds with some margin
   // (at 480 x 240 the MVAO reaches 0.918, at 560 x 280 0.932, SSAO + 0.046).
