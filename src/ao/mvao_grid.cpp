@@ -84,6 +84,17 @@ std::size_t MvaoGrid::memory_bytes() const {
          chunks_.capacity() * sizeof(chunks_[0]) + brick_codes_.capacity() * sizeof(std::uint64_t);
 }
 
+bool MvaoGrid::restore_cell(const CellIndex& cell, const MvaoCell& value) {
+  const auto code = morton_encode(cell[0], cell[1], cell[2]);
+  if (!code || value.last_frame == 0) return false;
+  const std::int64_t b = make_brick(*code >> kBrickBits);
+  if (b < 0) return false;
+  MvaoCell& c = brick(static_cast<std::uint32_t>(b)).cells[*code & (kBrickCells - 1)];
+  if (c.last_frame == 0) ++size_;
+  c = value;
+  return true;
+}
+
 std::int64_t MvaoGrid::make_brick(std::uint64_t brick_code) {
   const int found = index_.find(brick_code);
   if (found >= 0) return found;

@@ -114,6 +114,12 @@ class MvaoGrid {
 
   void clear();
 
+  /// Sets the cell at `cell` to `value` (a saved grid read back: `value.last_frame` > 0); returns
+  /// false, changing nothing, when the cell is outside the Morton range or the grid is full.
+  bool restore_cell(const CellIndex& cell, const MvaoCell& value);
+  /// Sets the count of integrated frames (a saved grid read back), which numbers the next frame.
+  void set_frames_integrated(std::uint64_t frames) { frames_ = frames; }
+
   double cell_size_m() const { return cell_size_m_; }
   AoIntegration integration() const { return mode_; }
   std::size_t cell_count() const { return size_; }

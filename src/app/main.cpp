@@ -170,6 +170,13 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
                "also write the TSDF to OUT/volume.vdb: OpenVDB float grids 'tsdf' (signed "
                "distance, m) and 'weight', voxel size fusion.voxel_size_m, trajectory.txt's world "
                "frame");
+  cmd.add_flag("--save-session", args.run.save_session,
+               "also write what is needed to continue this session later into OUT/session/ "
+               "(TSDF, MVAO grid, keyframes, trajectory, configuration)");
+  cmd.add_option("--resume", args.run.resume_dir,
+                 "continue the session saved in DIR/session/: the new frames are relocalised "
+                 "against it and fused in its world frame; the outputs cover every take")
+      ->type_name("DIR");
   CLI::Option* snapshot =
       cmd.add_option("--snapshot", args.run.snapshot_dir,
                      "write PNGs of the views (shaded, ssao, normals, depth, orbit) to DIR; "

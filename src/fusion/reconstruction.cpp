@@ -39,7 +39,7 @@ int Reconstruction::model_level(const Intrinsics& intrinsics) const {
 FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
                                    std::shared_ptr<RaycastResult> raycast_out, bool integrate) {
   FusionStep step;
-  if (!model_) {
+  if (!model_ && !lost_) {
     step.new_model = true;
     step.status = TrackingStatus::kGood;
     step.T_world_camera = T_world_last_;
@@ -141,6 +141,14 @@ RelocalisationResult Reconstruction::relocalise(const PreprocessedFrame& frame,
                                                 const Intrinsics& intrinsics) {
   const int level = model_level(intrinsics);
   return relocaliser_.relocalise(frame.pyramid, intrinsics.scaled(level), level, volume_, nullptr);
+}
+
+void Reconstruction::restore(const std::function<void(TsdfVolume&)>& fill_volume,
+                             std::vector<Keyframe> keyframes) {
+  reset();
+  fill_volume(volume_);
+  for (Keyframe& k : keyframes) relocaliser_.database().add(std::move(k));
+  lost_ = true;
 }
 
 void Reconstruction::reset() {

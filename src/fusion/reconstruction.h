@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <memory>
+#include <vector>
 
 #include "core/mesh.h"
 #include "core/pose.h"
@@ -58,6 +60,13 @@ class Reconstruction {
   /// from the last good pose), with the check of process(); the reconstruction is left as it
   /// was. For measuring relocalisation.
   RelocalisationResult relocalise(const PreprocessedFrame& frame, const Intrinsics& intrinsics);
+
+  /// Continues a saved take: the model restarts empty, `fill_volume` writes the saved TSDF into
+  /// the volume, `keyframes` become the keyframe database, and the take starts lost: nothing is
+  /// fused until a frame is relocalised against those keyframes, in the saved world frame.
+  /// Throws what fill_volume throws, and usage_error for keyframes that do not fit the ferns.
+  void restore(const std::function<void(TsdfVolume&)>& fill_volume,
+               std::vector<Keyframe> keyframes);
 
   /// Starts a new model: empty TSDF, identity pose for the next frame.
   void reset();

@@ -128,17 +128,17 @@ Status Processing::track(FrameWork& frame) {
   const bool was_lost = lost_;
   lost_ = reconstruction_.lost();
   if (lost_ && !was_lost) {
-    lost_since_ = frame.raw.sequence;
+    lost_frames_before_ = frames_tracking_lost_;
     spdlog::warn("frame {}: tracking lost; move back to a scanned area", frame.raw.sequence);
   }
   if (frame.fusion.relocalised)
-    spdlog::info("frame {}: relocalised {} ({} frames after tracking was lost)",
+    spdlog::info("frame {}: relocalised {} after {} lost frames",
                  frame.raw.sequence,
                  frame.fusion.relocalisation.candidate_keyframe < 0
                      ? std::string("from the last good pose")
                      : "from keyframe " +
                            std::to_string(frame.fusion.relocalisation.candidate_keyframe),
-                 frame.raw.sequence - lost_since_);
+                 frames_tracking_lost_ - lost_frames_before_);
   if (frame.fusion.status == TrackingStatus::kLost) {
     ++frames_tracking_lost_;
     frame.raycast.reset();

@@ -117,11 +117,19 @@ struct ProcessingStats {
   nlohmann::json to_json() const;
 };
 
+struct LoadedSession;
+
 /// Owns the reconstruction and what the stages collect; hands out the stage functions.
 class Processing {
  public:
   /// `out_dir`: where the `s` command (request_write_outputs) writes mesh.ply and trajectory.txt.
   explicit Processing(const Config& config, std::string out_dir = "aoscan-out");
+
+  /// Continues a saved session (before the chain starts): its TSDF, MVAO grid, keyframes and
+  /// trajectory; tracking starts lost, so the first frames are relocalised against its
+  /// keyframes. Throws input_error naming the session's file when its grid does not fit.
+  /// (saved_session.cpp)
+  void restore(const LoadedSession& session);
 
   /// The stages in chain order. They capture `this`: keep this object alive while they run.
   std::vector<StageDef> stages();
@@ -200,7 +208,7 @@ class Processing {
   std::vector<StampedPose> trajectory_;
   std::size_t frames_tracking_lost_ = 0;
   bool lost_ = false;           ///< tracking was lost after the last frame (track stage)
-  std::size_t lost_since_ = 0;  ///< the frame tracking was last lost at (for the log)
+  std::size_t lost_frames_before_ = 0;  ///< frames_tracking_lost_ when it was last lost (log)
   std::atomic<bool> reset_requested_{false};
   std::atomic<bool> paused_{false};
   std::atomic<bool> write_requested_{false};

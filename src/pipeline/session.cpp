@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <memory>
 #include <thread>
@@ -27,6 +28,7 @@
 #include "io/ply.h"
 #include "pipeline/output_folder.h"
 #include "pipeline/processing.h"
+#include "pipeline/saved_session.h"
 #include "pipeline/view_stage.h"
 #include "render/live_view.h"
 
@@ -36,13 +38,15 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 /// Every file a replay or scan may leave in --out: those of an earlier run are moved aside first.
-const std::vector<std::string> kRunOutputs = {"trajectory.txt", "mesh.ply", "stats.json",
-                                              "volume.vdb", "points.ply"};
+const std::vector<std::string> kRunOutputs = {"trajectory.txt", "mesh.ply",   "stats.json",
+                                              "volume.vdb",     "points.ply", "session/"};
 
 /// The files this run writes, in the order it writes them (stats.json last).
 std::vector<std::string> outputs_of(const RunOptions& options) {
   std::vector<std::string> files = {"trajectory.txt", "mesh.ply"};
   if (options.save_volume) files.push_back("volume.vdb");
+  if (options.save_session)
+    for (const std::string& f : session_outputs()) files.push_back(f);
   files.push_back("stats.json");
   return files;
 }
@@ -368,7 +372,8 @@ nlohmann::json report_calibration(const Source& source) {
 /// mesh, volume, grid, TSDF and export entries of `result`; the first failed file becomes the
 /// run's error when it had none.
 void export_outputs(const RunOptions& options, const Processing& processing, ViewStage* view,
-                    OutputFolder& outputs, ExportProgress& progress, SessionResult& result) {
+                    OutputFolder& outputs, ExportProgress& progress, const Intrinsics& camera,
+                    int takes, SessionResult& result) {
   const auto export_start = Clock::now();
   progress.start(outputs_of(options));
   outputs.write("trajectory.txt",
@@ -384,6 +389,7 @@ void export_outputs(const RunOptions& options, const Processing& processing, Vie
                   [&](const std::string& path) { result.volume = processing.write_volume(path); });
     result.volume->export_s = std::chrono::duration<double>(Clock::now() - volume_start).count();
   }
+  if (options.save_session) save_session(outputs, processing, options.config, camera, takes);
   result.session.export_s = std::chrono::duration<double>(Clock::now() - export_start).count();
   result.grid = processing.grid_stats();
   if (result.grid.points_out_of_range > 0)
@@ -453,6 +459,13 @@ SessionResult run_session(Source& source, const RunOptions& options,
                           const std::atomic<bool>& stop_requested) {
   ExportProgress own_progress;
   ExportProgress& progress = options.export_progress ? *options.export_progress : own_progress;
+  // A session to continue is read and checked first: a refused --resume leaves --out untouched
+  // (and may read the session that --out holds, which prepare() then moves to previous/).
+  std::optional<LoadedSession> resumed;
+  if (!options.resume_dir.empty()) {
+    resumed = load_session(options.resume_dir, options.config);
+    check_session_camera(*resumed, source.intrinsics());
+  }
   OutputFolder outputs(options.out_dir, &progress);
   outputs.prepare(kRunOutputs, outputs_of(options));
   for (const std::string& warning : costly_config_warnings(options.config))
@@ -468,6 +481,7 @@ SessionResult run_session(Source& source, const RunOptions& options,
                                     static_cast<std::size_t>(result.session.threads));
 
   Processing processing(options.config, options.out_dir);
+  if (resumed) processing.restore(*resumed);
   const ChainSetup chain = build_stages(options, processing);
   const bool stopped =
       run_with_controls(source, options, processing, chain, stop_requested, result);
@@ -480,7 +494,8 @@ SessionResult run_session(Source& source, const RunOptions& options,
   {
     std::optional<ExportTicker> ticker;
     if (options.show_progress) ticker.emplace(progress);
-    export_outputs(options, processing, chain.view.get(), outputs, progress, result);
+    export_outputs(options, processing, chain.view.get(), outputs, progress, source.intrinsics(),
+                   resumed ? resumed->takes + 1 : 1, result);
   }
   check_something_fused(source, options, result);
   // Last, so that it vouches for the files written before it (stats.json's "files").

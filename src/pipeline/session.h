@@ -31,6 +31,11 @@ struct RunOptions {
   /// Also write the TSDF as out_dir/volume.vdb (OpenVDB float grids `tsdf` and `weight`). Checked
   /// before the run: an out_dir where volume.vdb cannot be created is a usage error.
   bool save_volume = false;
+  /// Also write what is needed to continue later into out_dir/session/ (pipeline/saved_session.h).
+  bool save_session = false;
+  /// Non-empty: continue the session saved in resume_dir/session/ (read and checked before the
+  /// output folder is touched: a session that cannot be continued is an error, exit 2 or 3).
+  std::string resume_dir;
 
   /// Open the live view on its own thread. When no window can be made (no display, GL too old,
   /// shader failure) one warning line is logged and the run goes on headless.

@@ -101,6 +101,8 @@ TEST(LoopCli, ProgressEveryPrintsOneLineEachWithTheCounts) {
   std::size_t lines = 0;
   std::size_t last = 0;
   for (std::string line; std::getline(in, line);) {
+    // Warnings may come between them (at 64 x 48 tracking is lost, and says so).
+    if (line.rfind("aoscan: warning: ", 0) == 0) continue;
     std::size_t processed = 0, read = 0, dropped = 0;
     double elapsed = 0;
     ASSERT_EQ(std::sscanf(line.c_str(),

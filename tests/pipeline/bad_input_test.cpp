@@ -17,6 +17,7 @@
 #include "io/ply.h"
 #include "io/tum.h"
 #include "pipeline/config.h"
+#include "pipeline/list_source.h"
 #include "pipeline/processing.h"
 #include "pipeline/session.h"
 #include "support/scratch_dir.h"
@@ -26,34 +27,8 @@ namespace aoscan {
 namespace {
 
 namespace fs = std::filesystem;
-
-/// Serves a fixed list of frames (copies of corner frames, possibly edited).
-class ListSource : public Source {
- public:
-  explicit ListSource(std::vector<DepthFrame> frames) : frames_(std::move(frames)) {}
-  Status read(DepthFrame& frame) override {
-    if (next_ >= frames_.size()) return Status::end_of_stream();
-    frame = frames_[next_++];
-    return Status::ok();
-  }
-  std::string name() const override { return "list"; }
-  const Intrinsics& intrinsics() const override { return frames_.front().intrinsics; }
-  double depth_scale() const override { return kSynthDepthScale; }
-  std::optional<std::size_t> size() const override { return frames_.size(); }
-
- private:
-  std::vector<DepthFrame> frames_;
-  std::size_t next_ = 0;
-};
-
-/// Corner frames `first` .. `last` - 1 (320x240, exact depth), then `then_first` ..
-/// `then_last` - 1.
-std::vector<DepthFrame> frames(int first, int last, int then_first = 0, int then_last = 0) {
-  std::vector<DepthFrame> out;
-  for (int i = first; i < last; ++i) out.push_back(test::corner_frame(i));
-  for (int i = then_first; i < then_last; ++i) out.push_back(test::corner_frame(i));
-  return out;
-}
+using test::frames;
+using test::ListSource;
 
 struct RunFiles {
   SessionResult result;

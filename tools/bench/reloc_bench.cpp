@@ -58,7 +58,7 @@ int kitchen(const test::KidnapOptions& options, bool verbose) {
     std::fprintf(stderr, "%s: no frames after the mapped ones\n", options.dir.c_str());
     return 1;
   }
-  std::printf("map: frames 0-%d, %d lost, ATE %.1f mm against the reference, %zu keyframes\n",
+  std::printf("map: frames 0-%d, %d lost, ATE %.1f mm against the reference (both from the first frame), %zu keyframes\n",
               options.map_frames - 1, r.map_lost, 1e3 * r.map_ate_m, r.keyframes);
   std::printf("kidnapped frames: %d, coverable (within %.0f cm and %.0f deg of a mapped pose) "
               "%d\n",
