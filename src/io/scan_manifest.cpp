@@ -153,7 +153,7 @@ std::vector<ScanEntry> read_scan_manifest(const std::string& path) {
   const fs::path base = fs::path(path).parent_path();
   std::vector<ScanEntry> entries;
   std::set<std::string> names;
-  Context c{path};
+  Context c{path, 0, {}};
   for (const YAML::Node& node : doc["scans"]) {
     c.name.clear();
     try {

@@ -214,6 +214,11 @@ void Processing::restore(const LoadedSession& session) {
       throw input_error(session.dir + "/" + kGrid + ": a cell outside the grid's range");
   grid_.set_frames_integrated(session.grid.frames);
   trajectory_ = session.trajectory;
+  if (session.keyframes.keyframes.empty())
+    spdlog::warn("--resume: {} holds no keyframes (saved with relocalisation.ferns=0, or no frame "
+                 "was tracked well): the new take has nothing to be relocalised against and "
+                 "stays lost",
+                 session.dir);
   spdlog::info("--resume: {} ({} takes, {} poses, {} keyframes, {} TSDF bricks, {} MVAO cells); "
                "the first frames are relocalised against it",
                session.dir, session.takes, session.trajectory.size(),

@@ -84,7 +84,9 @@ void expect_recovered(const test::TakeResult& r) {
   }
   EXPECT_LT(r.worst_relocalised_m, 0.02);
   EXPECT_LT(r.worst_relocalised_deg, 1.0);
-  if (kCompareWithWholeTake) EXPECT_NEAR(r.ate_m, whole_take().ate_m, 0.001);
+  if (kCompareWithWholeTake) {
+    EXPECT_NEAR(r.ate_m, whole_take().ate_m, 0.001);
+  }
 }
 
 TEST(Relocalisation, ATakeThatBlacksOutForTwoSecondsIsRelocalised) {
