@@ -95,14 +95,13 @@ bool Relocaliser::verify(const DepthPyramid& frame, const Intrinsics& model_intr
                          RelocalisationResult& result) {
   // The model at the candidate pose, each ray searched next to the frame's depth: where the pose
   // is right, the model's surface is there.
-  auto model = std::make_shared<RaycastResult>();
   auto start = Clock::now();
   const Image<float>& frame_depth = frame.depth_m[model_level];
-  raycast(volume, model_intrinsics, T_world_camera, config_.fusion, *model, &frame_depth,
+  raycast(volume, model_intrinsics, T_world_camera, config_.fusion, check_model_, &frame_depth,
           RaycastRays::kHintedOnly);
   add_ms(result.raycast_ms, start);
   start = Clock::now();
-  result.icp = icp(frame, *model, T_world_camera, config_.tracking, workspace_);
+  result.icp = icp(frame, check_model_, T_world_camera, config_.tracking, workspace_);
   add_ms(result.icp_ms, start);
   const RelocalisationConfig& rc = config_.relocalisation;
   const auto reject = [&](const char* why) {
@@ -116,27 +115,25 @@ bool Relocaliser::verify(const DepthPyramid& frame, const Intrinsics& model_intr
       result.icp.rotation_deg > kConvergedRotationDeg)
     return reject("not converged");
   if (result.icp.inlier_ratio < rc.accept_inlier_ratio) return reject("inliers");
-  result.agreement = compare_depth(frame_depth, model->depth_m, rc.accept_depth_tolerance_m,
+  result.agreement = compare_depth(frame_depth, check_model_.depth_m, rc.accept_depth_tolerance_m,
                                    config_.tracking.noise_reference_depth_m);
   if (result.agreement.overlap() < rc.accept_overlap) return reject("overlap");
   if (result.agreement.agreement() < rc.accept_agreement) return reject("agreement");
   // The hinted rays look only next to the frame's depth: whether the frame sees through a surface
   // of the model in front of it is asked of unhinted rays, on a coarse grid.
   start = Clock::now();
-  RaycastResult coarse;
   raycast(volume, see_through_intrinsics(model_intrinsics), result.icp.T_world_camera,
-          config_.fusion, coarse);
+          config_.fusion, see_through_model_);
   add_ms(result.raycast_ms, start);
   result.see_through = compare_depth(resample_nearest(frame.depth_m[kPyramidLevels - 1],
-                                                      coarse.depth_m.width(),
-                                                      coarse.depth_m.height()),
-                                     coarse.depth_m, rc.accept_depth_tolerance_m,
+                                                      see_through_model_.depth_m.width(),
+                                                      see_through_model_.depth_m.height()),
+                                     see_through_model_.depth_m, rc.accept_depth_tolerance_m,
                                      config_.tracking.noise_reference_depth_m);
   if (result.see_through.see_through_ratio() > rc.accept_max_see_through)
     return reject("see-through");
   result.rejection = "";
   result.T_world_camera = result.icp.T_world_camera;
-  result.model = std::move(model);
   return true;
 }
 
@@ -177,8 +174,6 @@ RelocalisationResult Relocaliser::relocalise(const DepthPyramid& frame,
   // Keyframe candidates are raycast at the frame's coarsest level: ICP from them only has to come
   // near enough for the check's ICP at the model's resolution.
   const Intrinsics& search_intrinsics = frame.maps[kPyramidLevels - 1].intrinsics;
-  RaycastResult scratch;
-  Image<float> hint;
   for (const Candidate& c : candidates) {
     const RaycastResult* reference = nullptr;
     if (c.keyframe < 0) {
@@ -187,13 +182,13 @@ RelocalisationResult Relocaliser::relocalise(const DepthPyramid& frame,
       // The keyframe was fused at its pose: its depth is the hint of the raycast there.
       const auto start = Clock::now();
       const Keyframe& k = database_.keyframes()[static_cast<std::size_t>(c.keyframe)];
-      depth_from_mm(k.depth_mm, hint);
+      depth_from_mm(k.depth_mm, hint_);
       const bool hinted =
-          hint.width() == search_intrinsics.width && hint.height() == search_intrinsics.height;
-      raycast(volume, search_intrinsics, c.T_world_camera, config_.fusion, scratch,
-              hinted ? &hint : nullptr, RaycastRays::kHintedOnly);
+          hint_.width() == search_intrinsics.width && hint_.height() == search_intrinsics.height;
+      raycast(volume, search_intrinsics, c.T_world_camera, config_.fusion, search_model_,
+              hinted ? &hint_ : nullptr, RaycastRays::kHintedOnly);
       add_ms(result.raycast_ms, start);
-      reference = &scratch;
+      reference = &search_model_;
     }
     ++result.candidates_tried;
     if (reference->hits == 0) continue;

@@ -49,9 +49,6 @@ struct RelocalisationResult {
   /// "not converged", "inliers", "overlap", "agreement", "see-through".
   const char* rejection = "";
   double raycast_ms = 0.0, icp_ms = 0.0;  ///< time in raycasts and in ICP
-  /// The model raycast at the verified pose (from the verifying step: reusable as the
-  /// tracking reference until the next raycast).
-  std::shared_ptr<const RaycastResult> model;
 };
 
 /// The keyframe database of a take and the relocalisation of frames against its model.
@@ -88,6 +85,11 @@ class Relocaliser {
   TrackingConfig search_;  ///< tracking with the relocalisation's wider motion limits
   KeyframeDatabase database_;
   IcpWorkspace workspace_;
+  /// Raycast buffers reused from attempt to attempt: a keyframe candidate's (at the frame's
+  /// coarsest level), the check's hinted one and its coarse unhinted one, and the keyframe's
+  /// depth hint in metres.
+  RaycastResult search_model_, check_model_, see_through_model_;
+  Image<float> hint_;
 };
 
 }  // namespace aoscan
