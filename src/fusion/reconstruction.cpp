@@ -65,7 +65,8 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
   if (lost_) {
     // Nothing is fused until a pose passes the check: from the last good pose or a keyframe's.
     step.relocalisation =
-        relocaliser_.relocalise(frame.pyramid, model_intrinsics, level, volume_, model_);
+        relocaliser_.relocalise(frame.pyramid, model_intrinsics, level, volume_, model_,
+                                icp_workspace_);
     if (step.relocalisation.accepted) {
       lost_ = false;
       ++relocalisations_;
@@ -111,7 +112,7 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
   last_is_previous_ = true;
   T_world_last_ = step.T_world_camera;
   if (step.integrated && step.status == TrackingStatus::kGood)
-    relocaliser_.observe(frame.pyramid, step.T_world_camera);
+    relocaliser_.observe(frame.pyramid, step.T_world_camera, level);
   // The model is raycast at a pyramid level of the frame; a frame just fused at this pose is the
   // depth hint (its pyramid depth at that level has exactly the raycast's pixel grid).
   const Image<float>& hint = frame.pyramid.depth_m[level];
@@ -140,7 +141,8 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
 RelocalisationResult Reconstruction::relocalise(const PreprocessedFrame& frame,
                                                 const Intrinsics& intrinsics) {
   const int level = model_level(intrinsics);
-  return relocaliser_.relocalise(frame.pyramid, intrinsics.scaled(level), level, volume_, nullptr);
+  return relocaliser_.relocalise(frame.pyramid, intrinsics.scaled(level), level, volume_, nullptr,
+                                 icp_workspace_);
 }
 
 void Reconstruction::restore(const std::function<void(TsdfVolume&)>& fill_volume,

@@ -85,14 +85,29 @@ Relocaliser::Relocaliser(const ReconstructionConfig& config)
   search_.iterations_level0 = 0;
 }
 
-void Relocaliser::observe(const DepthPyramid& frame, const Pose& T_world_camera) {
+void Relocaliser::observe(const DepthPyramid& frame, const Pose& T_world_camera,
+                          int model_level) {
   if (!enabled() || database_.full()) return;
+  const bool first = database_.keyframes().empty();
   database_.add_if_novel(database_.encode(frame), T_world_camera, frame);
+  if (!first || database_.keyframes().empty()) return;
+  // Sized once here, the buffers cost nothing when the camera is lost (allocating and touching
+  // them then added about 5 ms to the first attempt on RedKitchen).
+  const auto size = [](RaycastResult& r, const Intrinsics& in) {
+    r.depth_m.resize(in.width, in.height, 0.0f);
+    r.maps.vertices.resize(in.width, in.height, Eigen::Vector3f::Zero());
+    r.maps.normals.resize(in.width, in.height, Eigen::Vector3f::Zero());
+  };
+  const Intrinsics& search = frame.maps[kPyramidLevels - 1].intrinsics;
+  size(search_model_, search);
+  hint_.resize(search.width, search.height, 0.0f);
+  size(check_model_, frame.maps[model_level].intrinsics);
+  size(see_through_model_, see_through_intrinsics(frame.maps[model_level].intrinsics));
 }
 
 bool Relocaliser::verify(const DepthPyramid& frame, const Intrinsics& model_intrinsics,
                          int model_level, const TsdfVolume& volume, const Pose& T_world_camera,
-                         RelocalisationResult& result) {
+                         IcpWorkspace& workspace, RelocalisationResult& result) {
   // The model at the candidate pose, each ray searched next to the frame's depth: where the pose
   // is right, the model's surface is there.
   auto start = Clock::now();
@@ -101,7 +116,7 @@ bool Relocaliser::verify(const DepthPyramid& frame, const Intrinsics& model_intr
           RaycastRays::kHintedOnly);
   add_ms(result.raycast_ms, start);
   start = Clock::now();
-  result.icp = icp(frame, check_model_, T_world_camera, config_.tracking, workspace_);
+  result.icp = icp(frame, check_model_, T_world_camera, config_.tracking, workspace);
   add_ms(result.icp_ms, start);
   const RelocalisationConfig& rc = config_.relocalisation;
   const auto reject = [&](const char* why) {
@@ -140,7 +155,8 @@ bool Relocaliser::verify(const DepthPyramid& frame, const Intrinsics& model_intr
 RelocalisationResult Relocaliser::relocalise(const DepthPyramid& frame,
                                              const Intrinsics& model_intrinsics, int model_level,
                                              const TsdfVolume& volume,
-                                             const std::shared_ptr<const RaycastResult>& last_model) {
+                                             const std::shared_ptr<const RaycastResult>& last_model,
+                                             IcpWorkspace& workspace) {
   RelocalisationResult result;
   const Image<float>& coarse = frame.depth_m[kPyramidLevels - 1];
   const auto valid = std::count_if(coarse.data(), coarse.data() + coarse.size(),
@@ -193,7 +209,7 @@ RelocalisationResult Relocaliser::relocalise(const DepthPyramid& frame,
     ++result.candidates_tried;
     if (reference->hits == 0) continue;
     const auto start = Clock::now();
-    const IcpResult r = icp(frame, *reference, c.T_world_camera, search_, workspace_);
+    const IcpResult r = icp(frame, *reference, c.T_world_camera, search_, workspace);
     add_ms(result.icp_ms, start);
     if (result.candidates_tried == 1) result.first_search = r;
     // A candidate that matches too little already will not pass the check: not worth a raycast.
@@ -206,7 +222,8 @@ RelocalisationResult Relocaliser::relocalise(const DepthPyramid& frame,
     return a.inlier_ratio > b.inlier_ratio;
   });
   for (std::size_t i = 0; i < tracked.size() && i < static_cast<std::size_t>(kMaxChecks); ++i) {
-    if (verify(frame, model_intrinsics, model_level, volume, tracked[i].T_world_camera, result)) {
+    if (verify(frame, model_intrinsics, model_level, volume, tracked[i].T_world_camera, workspace,
+               result)) {
       result.accepted = true;
       result.candidate_keyframe = tracked[i].keyframe;
       return result;

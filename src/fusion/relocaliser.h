@@ -59,15 +59,19 @@ class Relocaliser {
   bool enabled() const { return config_.relocalisation.ferns > 0; }
 
   /// A well-tracked frame at `T_world_camera`: becomes a keyframe when it is unlike every other.
-  void observe(const DepthPyramid& frame, const Pose& T_world_camera);
+  /// The first keyframe sizes the raycast buffers of an attempt (the model's at `model_level` of
+  /// the frame's pyramid), so that the first attempt after a loss is no slower than the others.
+  void observe(const DepthPyramid& frame, const Pose& T_world_camera, int model_level);
 
   /// Looks for the pose of `frame` in the model `volume` (world frame): from the last good pose
   /// (its raycast `last_model`, may be null) and from the poses of the keyframes most like the
   /// frame, ICP against the model raycast at `model_intrinsics`; the candidate that matches best
-  /// is checked (RelocalisationConfig). Never returns a non-finite pose.
+  /// is checked (RelocalisationConfig). `workspace` is ICP's scratch: the tracker's, idle while
+  /// the camera is lost and already sized. Never returns a non-finite pose.
   RelocalisationResult relocalise(const DepthPyramid& frame, const Intrinsics& model_intrinsics,
                                   int model_level, const TsdfVolume& volume,
-                                  const std::shared_ptr<const RaycastResult>& last_model);
+                                  const std::shared_ptr<const RaycastResult>& last_model,
+                                  IcpWorkspace& workspace);
 
   KeyframeDatabase& database() { return database_; }
   const KeyframeDatabase& database() const { return database_; }
@@ -79,12 +83,12 @@ class Relocaliser {
   };
   /// The check of a pose (RelocalisationConfig); fills `result` and returns whether it passes.
   bool verify(const DepthPyramid& frame, const Intrinsics& model_intrinsics, int model_level,
-              const TsdfVolume& volume, const Pose& T_world_camera, RelocalisationResult& result);
+              const TsdfVolume& volume, const Pose& T_world_camera, IcpWorkspace& workspace,
+              RelocalisationResult& result);
 
   ReconstructionConfig config_;
   TrackingConfig search_;  ///< tracking with the relocalisation's wider motion limits
   KeyframeDatabase database_;
-  IcpWorkspace workspace_;
   /// Raycast buffers reused from attempt to attempt: a keyframe candidate's (at the frame's
   /// coarsest level), the check's hinted one and its coarse unhinted one, and the keyframe's
   /// depth hint in metres.
