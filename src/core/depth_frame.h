@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "core/colour.h"
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/pose.h"
@@ -22,6 +23,12 @@ struct DepthFrame {
   std::uint64_t sequence = 0;      ///< index of the frame in its source (skipped frames count)
   std::string origin;              ///< where it came from (file path or device), for messages
   std::optional<Pose> T_world_camera_gt;  ///< ground truth when the source knows it
+  /// The colour image taken with this depth frame (its own size; empty when the source has no
+  /// colour or this frame's colour was skipped) and the colour camera's calibration (set whenever
+  /// the source has colour).
+  Image<Rgb8> colour;
+  std::optional<ColourCamera> colour_camera;
+  double colour_timestamp_s = 0.0;  ///< the colour image's own timestamp (seconds)
   /// Host steady-clock time at which the frame reached this process: set by live sources (the
   /// driver's frame callback or buffer wake-up); recordings leave it empty and the pipeline stamps
   /// the moment the frame is delivered. Where the capture latency starts.

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <system_error>
 
+#include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 
 #include "core/status.h"
@@ -109,6 +110,59 @@ bool contains(const std::string& s, const char* part) {
   return s.find(part) != std::string::npos;
 }
 
+/// The `colour` object of camera.json (read_camera_json()).
+ColourCamera read_colour(const nlohmann::json& doc, const std::string& path,
+                         const Intrinsics& depth) {
+  if (!doc.is_object()) throw input_error(path + ": key 'colour' must hold a JSON object");
+  const auto registered = doc.find("registered");
+  if (registered != doc.end() && !registered->is_boolean())
+    throw input_error(path + ": key 'colour.registered' must be true or false (got " +
+                      registered->dump() + ")");
+  if (registered != doc.end() && registered->get<bool>()) {
+    if (doc.size() != 1)
+      throw input_error(path + ": a registered colour camera takes no other key than "
+                               "'colour.registered'");
+    return ColourCamera::registered_to(depth);
+  }
+  const std::string prefix = path + " (colour)";
+  ColourCamera c;
+  c.intrinsics.fx = positive_number(doc, prefix, "fx", true);
+  c.intrinsics.fy = positive_number(doc, prefix, "fy", true);
+  c.intrinsics.cx = positive_number(doc, prefix, "cx", false);
+  c.intrinsics.cy = positive_number(doc, prefix, "cy", false);
+  const auto width = doc.find("width");
+  const auto height = doc.find("height");
+  if (width == doc.end() || height == doc.end())
+    throw input_error(path + ": keys 'colour.width' and 'colour.height' are required");
+  c.intrinsics.width = image_side(*width, prefix, "width");
+  c.intrinsics.height = image_side(*height, prefix, "height");
+  const auto m = doc.find("depth_to_colour");
+  if (m == doc.end()) throw input_error(path + ": missing key 'colour.depth_to_colour'");
+  if (!m->is_array() || m->size() != 12)
+    throw input_error(path + ": key 'colour.depth_to_colour' must be an array of 12 numbers "
+                             "(the 3x4 matrix [R | t], row by row)");
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  for (int i = 0; i < 12; ++i) {
+    const nlohmann::json& e = (*m)[static_cast<std::size_t>(i)];
+    if (!e.is_number() || !std::isfinite(e.get<double>()))
+      throw input_error(path + ": key 'colour.depth_to_colour' element " + std::to_string(i) +
+                        " is not a finite number (got " + e.dump() + ")");
+    const double v = e.get<double>();
+    if (i % 4 == 3)
+      t(i / 4) = v;
+    else
+      R(i / 4, i % 4) = v;
+  }
+  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-3 ||
+      R.determinant() < 0.0)
+    throw input_error(path + ": key 'colour.depth_to_colour' is not a rotation and a "
+                             "translation (R^T R must be the identity within 1e-3, det R = +1)");
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  c.T_colour_depth = Pose(svd.matrixU() * svd.matrixV().transpose(), t);
+  return c;
+}
+
 }  // namespace
 
 CameraInfo read_camera_json(const std::string& path, int default_width, int default_height) {
@@ -152,19 +206,34 @@ CameraInfo read_camera_json(const std::string& path, int default_width, int defa
     info.intrinsics.width = default_width;
     info.intrinsics.height = default_height;
   }
+  const auto colour = doc.find("colour");
+  if (colour != doc.end()) info.colour = read_colour(*colour, path, info.intrinsics);
   info.origin = path;
   return info;
 }
 
-void write_camera_json(const std::string& path, const Intrinsics& intrinsics, double depth_scale) {
-  if (!intrinsics.valid() || !std::isfinite(depth_scale) || !(depth_scale > 0))
+void write_camera_json(const std::string& path, const Intrinsics& intrinsics, double depth_scale,
+                       const ColourCamera* colour) {
+  if (!intrinsics.valid() || !std::isfinite(depth_scale) || !(depth_scale > 0) ||
+      (colour != nullptr && !colour->intrinsics.valid()))
     throw usage_error(path + ": refusing to write invalid calibration");
-  const std::string text =
-      "{ \"width\": " + std::to_string(intrinsics.width) +
-      ", \"height\": " + std::to_string(intrinsics.height) +
-      ", \"fx\": " + shortest(intrinsics.fx) + ", \"fy\": " + shortest(intrinsics.fy) +
-      ", \"cx\": " + shortest(intrinsics.cx) + ", \"cy\": " + shortest(intrinsics.cy) +
-      ", \"depth_scale\": " + shortest(depth_scale) + " }\n";
+  const auto pinhole = [](const Intrinsics& k) {
+    return "\"width\": " + std::to_string(k.width) + ", \"height\": " + std::to_string(k.height) +
+           ", \"fx\": " + shortest(k.fx) + ", \"fy\": " + shortest(k.fy) +
+           ", \"cx\": " + shortest(k.cx) + ", \"cy\": " + shortest(k.cy);
+  };
+  std::string colour_text;
+  if (colour != nullptr && colour->registered) {
+    colour_text = ",\n  \"colour\": { \"registered\": true }";
+  } else if (colour != nullptr) {
+    colour_text = ",\n  \"colour\": { " + pinhole(colour->intrinsics) + ",\n    \"depth_to_colour\": [";
+    const Eigen::Matrix4d m = colour->T_colour_depth.matrix();
+    for (int i = 0; i < 12; ++i)
+      colour_text += (i == 0 ? "" : i % 4 == 0 ? ",\n      " : ", ") + shortest(m(i / 4, i % 4));
+    colour_text += "] }";
+  }
+  const std::string text = "{ " + pinhole(intrinsics) +
+                           ", \"depth_scale\": " + shortest(depth_scale) + colour_text + " }\n";
   write_atomically(path, [&text](const std::string& partial) {
     std::ofstream out(partial, std::ios::binary | std::ios::trunc);
     out << text;

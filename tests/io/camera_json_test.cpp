@@ -159,6 +159,88 @@ TEST(CameraJson, WriteRejectsInvalidCalibration) {
   EXPECT_THROW(write_camera_json(dir.file("no/such/dir/camera.json"), Intrinsics{}, 1.0), Error);
 }
 
+TEST(CameraJson, ColourCameraRoundTripIsExact) {
+  ScratchDir dir;
+  ColourCamera colour;
+  colour.intrinsics = Intrinsics{1280, 960, 1050.25, 1049.5, 639.5, 481.0 / 3.0};
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.3, -1.0, 0.2).normalized()).toRotationMatrix();
+  colour.T_colour_depth = Pose(R, Eigen::Vector3d(-0.025, 0.001, 0.0005));
+  const Intrinsics depth{640, 480, 585.0, 585.0, 320.0, 240.0};
+  write_camera_json(dir.file("camera.json"), depth, 1000.0, &colour);
+  const CameraInfo info = read_camera_json(dir.file("camera.json"), 1, 1);
+  EXPECT_EQ(info.intrinsics, depth);
+  ASSERT_TRUE(info.colour.has_value());
+  EXPECT_FALSE(info.colour->registered);
+  EXPECT_EQ(info.colour->intrinsics, colour.intrinsics);
+  // Written to the last bit; read back as the nearest rotation, which R already is to rounding.
+  EXPECT_LT((info.colour->T_colour_depth.rotation() - R).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_EQ(info.colour->T_colour_depth.translation(), colour.T_colour_depth.translation());
+  // A depth point 2 m ahead lands where the calibration says.
+  double u = 0.0, v = 0.0;
+  ASSERT_TRUE(info.colour->project(Eigen::Vector3d(0.1, -0.2, 2.0), u, v));
+  const Eigen::Vector3d q = R * Eigen::Vector3d(0.1, -0.2, 2.0) + colour.T_colour_depth.translation();
+  EXPECT_NEAR(u, 1050.25 * q.x() / q.z() + 639.5, 1e-9);
+  EXPECT_NEAR(v, 1049.5 * q.y() / q.z() + 481.0 / 3.0, 1e-9);
+}
+
+TEST(CameraJson, RegisteredColourCamera) {
+  ScratchDir dir;
+  write_text(dir.file("camera.json"), R"({ "fx": 585, "fy": 585, "cx": 320, "cy": 240,
+      "depth_scale": 1000, "colour": { "registered": true } })");
+  const CameraInfo info = read_camera_json(dir.file("camera.json"), 640, 480);
+  ASSERT_TRUE(info.colour.has_value());
+  EXPECT_TRUE(info.colour->registered);
+  EXPECT_EQ(info.colour->intrinsics, info.intrinsics);
+  EXPECT_EQ(info.colour->T_colour_depth.matrix(), Eigen::Matrix4d::Identity());
+  write_camera_json(dir.file("again.json"), info.intrinsics, 1000.0, &*info.colour);
+  const CameraInfo again = read_camera_json(dir.file("again.json"), 1, 1);
+  ASSERT_TRUE(again.colour.has_value());
+  EXPECT_TRUE(again.colour->registered);
+  // Without a colour object there is no colour camera.
+  write_camera_json(dir.file("plain.json"), info.intrinsics, 1000.0);
+  EXPECT_FALSE(read_camera_json(dir.file("plain.json"), 1, 1).colour.has_value());
+}
+
+TEST(CameraJson, BadColourCamera) {
+  ScratchDir dir;
+  const std::string head = R"({ "fx": 585, "fy": 585, "cx": 320, "cy": 240, "depth_scale": 1000, )";
+  const std::string pinhole = R"("width": 640, "height": 480, "fx": 525, "fy": 525, "cx": 320, "cy": 240)";
+  EXPECT_NE(error_for(dir, head + R"("colour": 3 })").find("'colour' must hold"), std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { "registered": "yes" } })").find("colour.registered"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { "registered": true, "fx": 1 } })")
+                .find("takes no other key"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { "fx": 525, "fy": 525, "cx": 320, "cy": 240,
+                "depth_to_colour": [1,0,0,0, 0,1,0,0, 0,0,1,0] } })")
+                .find("'colour.width' and 'colour.height' are required"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { )" + pinhole + " } }").find("colour.depth_to_colour"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { )" + pinhole +
+                               R"(, "depth_to_colour": [1,0,0, 0,1,0, 0,0,1] } })")
+                .find("12 numbers"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { )" + pinhole +
+                               R"(, "depth_to_colour": [1,0,0,0, 0,1,0,0, 0,0,1,"x"] } })")
+                .find("element 11"),
+            std::string::npos);
+  // A scale, a mirror: not a rotation.
+  EXPECT_NE(error_for(dir, head + R"("colour": { )" + pinhole +
+                               R"(, "depth_to_colour": [2,0,0,0, 0,1,0,0, 0,0,1,0] } })")
+                .find("not a rotation"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { )" + pinhole +
+                               R"(, "depth_to_colour": [-1,0,0,0, 0,1,0,0, 0,0,1,0] } })")
+                .find("not a rotation"),
+            std::string::npos);
+  EXPECT_NE(error_for(dir, head + R"("colour": { "width": 0, "height": 480, "fx": 525, "fy": 525,
+                "cx": 320, "cy": 240, "depth_to_colour": [1,0,0,0, 0,1,0,0, 0,0,1,0] } })")
+                .find("width"),
+            std::string::npos);
+}
+
 TEST(CameraJson, FolderDefaults) {
   const CameraInfo fr1 = default_camera_for_folder("/data/rgbd_dataset_freiburg1_desk");
   EXPECT_EQ(fr1.intrinsics, (Intrinsics{640, 480, 517.3, 516.5, 318.6, 255.3}));
