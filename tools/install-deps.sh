@@ -8,6 +8,8 @@ packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-de
           nlohmann-json3-dev libyaml-cpp-dev libtbb-dev
           libopenvdb-dev libboost-iostreams-dev     # volume.vdb (--save-volume)
           libtinyxml2-dev                            # MeshLab projects (aoscan scans)
+          libopencv-imgcodecs-dev libopencv-imgproc-dev  # colour images; the colour registration
+          libtinygltf-dev                            # mesh.glb
           libopenmpi-dev openmpi-bin                 # MPI ranks of aoscan scans (mpirun)
           libopenni2-dev libfreenect-dev             # live cameras (libusb comes with libfreenect)
           libglfw3-dev libglm-dev libgl-dev          # live view: GLFW window, GLM, GL headers
