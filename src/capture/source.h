@@ -39,6 +39,9 @@ class Source {
   virtual std::string calibration_origin() const { return "the source"; }
   /// True when the calibration is a generic default, not this camera's: the run warns.
   virtual bool calibration_is_default() const { return false; }
+  /// Where the colour camera's calibration comes from (a file, a driver, "assumed registered");
+  /// "" when the source has no colour.
+  virtual std::string colour_origin() const { return ""; }
   /// Number of frames when known in advance (recordings, synthetic scenes).
   virtual std::optional<std::size_t> size() const { return std::nullopt; }
   /// True for live cameras: they never wait for the consumer.

@@ -7,8 +7,11 @@
 #include <utility>
 #include <vector>
 
+#include <spdlog/spdlog.h>
+
 #include "capture/png_depth.h"
 #include "io/camera_json.h"
+#include "io/colour_image.h"
 #include "io/tum.h"
 
 namespace aoscan {
@@ -69,6 +72,7 @@ class TumSource final : public Source {
     }
 
     if (!size_known_) probe_size();
+    open_colour(info);
     // A camera.json of a camera that cannot exist (the defaults stand for 640x480 cameras).
     if (is_file(camera))
       if (const std::string why = intrinsics_.implausible(); !why.empty())
@@ -103,6 +107,7 @@ class TumSource final : public Source {
       frame.sequence = i;
       frame.origin = path;
       frame.T_world_camera_gt = associate(ground_truth_, frame.timestamp_s, kGroundTruthMaxDtS);
+      read_colour(i, frame);
       return Status::ok();
     } catch (const std::exception& e) {
       return Status::internal(paths_[i] + " (frame " + std::to_string(i) + "): " + e.what());
@@ -114,6 +119,7 @@ class TumSource final : public Source {
   double depth_scale() const override { return depth_scale_; }
   std::string calibration_origin() const override { return calibration_origin_; }
   bool calibration_is_default() const override { return calibration_is_default_; }
+  std::string colour_origin() const override { return colour_origin_; }
   std::optional<std::size_t> size() const override { return entries_.size(); }
   bool seekable() const override { return true; }
   Status seek(std::size_t index) override {
@@ -125,6 +131,73 @@ class TumSource final : public Source {
   }
 
  private:
+  /// rgb.txt, when the folder has one: its entries paired with depth.txt's (associate_lists()),
+  /// the colour camera from camera.json or, without one there, colour taken as registered. A
+  /// list that cannot be read leaves the recording without colour (the depth is never lost).
+  void open_colour(const CameraInfo& info) {
+    const std::string list = folder_ + "/rgb.txt";
+    if (!is_file(list)) return;
+    std::vector<TumListEntry> colour;
+    try {
+      colour = read_tum_list(list);
+    } catch (const Error& e) {
+      spdlog::warn("{}; the recording is replayed without colour", e.what());
+      return;
+    }
+    if (colour.empty()) {
+      spdlog::warn("{}: lists no frames; the recording is replayed without colour", list);
+      return;
+    }
+    const std::vector<std::optional<std::size_t>> partner =
+        associate_lists(entries_, colour, kColourMaxDtS);
+    colour_paths_.resize(entries_.size());
+    colour_stamps_.resize(entries_.size());
+    for (std::size_t i = 0; i < entries_.size(); ++i) {
+      if (!partner[i]) continue;
+      const TumListEntry& e = colour[*partner[i]];
+      colour_paths_[i] = fs::path(e.path).is_absolute() ? e.path : folder_ + "/" + e.path;
+      colour_stamps_[i] = e.timestamp_s;
+    }
+    if (info.colour) {
+      colour_camera_ = *info.colour;
+      if (colour_camera_->registered) colour_camera_->intrinsics = intrinsics_;
+      colour_origin_ = info.origin;
+    } else {
+      colour_camera_ = ColourCamera::registered_to(intrinsics_);
+      colour_origin_ = "assumed registered (no colour camera in camera.json)";
+      spdlog::warn("{}: colour without a colour camera in camera.json: taken as registered to "
+                   "the depth (aoscan-colour-registration estimates the registration)",
+                   folder_);
+    }
+  }
+
+  /// Frame i's colour into `frame`, or the reason it has none in frame.colour_error.
+  void read_colour(std::size_t i, DepthFrame& frame) {
+    frame.colour_camera = colour_camera_;
+    frame.colour_error.clear();
+    frame.colour_timestamp_s = 0.0;
+    if (!colour_camera_ || !colour_wanted()) {
+      frame.colour.resize(0, 0);
+      return;
+    }
+    const auto fail = [&](std::string why) {
+      frame.colour.resize(0, 0);
+      frame.colour_error = std::move(why);
+    };
+    if (colour_paths_[i].empty())
+      return fail(paths_[i] + " (frame " + std::to_string(i) + "): no colour frame within " +
+                  std::to_string(static_cast<int>(kColourMaxDtS * 1000.0 + 0.5)) +
+                  " ms in rgb.txt");
+    if (Status s = read_colour_image(colour_paths_[i], frame.colour, i); !s.is_ok())
+      return fail(s.message());
+    const Intrinsics& k = colour_camera_->intrinsics;
+    if (frame.colour.width() != k.width || frame.colour.height() != k.height)
+      return fail(colour_paths_[i] + " (frame " + std::to_string(i) + "): size " +
+                  size_text(frame.colour.width(), frame.colour.height()) + " differs from " +
+                  size_text(k.width, k.height) + " of the colour camera");
+    frame.colour_timestamp_s = colour_stamps_[i];
+  }
+
   /// Without a size in camera.json, the first frame that decodes sets it; it is kept for read().
   void probe_size() {
     for (std::size_t i = 0; i < paths_.size(); ++i) {
@@ -156,6 +229,11 @@ class TumSource final : public Source {
   Image<std::uint16_t> probe_image_;
   std::size_t probe_index_ = 0;
   bool probe_valid_ = false;
+  // Colour (when the folder has rgb.txt): per depth entry its colour image ("" = none near it).
+  std::optional<ColourCamera> colour_camera_;
+  std::string colour_origin_;
+  std::vector<std::string> colour_paths_;
+  std::vector<double> colour_stamps_;
 };
 
 }  // namespace

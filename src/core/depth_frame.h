@@ -29,6 +29,10 @@ struct DepthFrame {
   Image<Rgb8> colour;
   std::optional<ColourCamera> colour_camera;
   double colour_timestamp_s = 0.0;  ///< the colour image's own timestamp (seconds)
+  /// Why this frame has no colour although its source has colour ("" otherwise): a missing or
+  /// corrupt colour file, a colour image of the wrong size, no colour frame near its timestamp.
+  /// The depth is used all the same; the run counts and reports these.
+  std::string colour_error;
   /// Host steady-clock time at which the frame reached this process: set by live sources (the
   /// driver's frame callback or buffer wake-up); recordings leave it empty and the pipeline stamps
   /// the moment the frame is delivered. Where the capture latency starts.

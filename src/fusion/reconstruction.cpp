@@ -3,12 +3,24 @@
 #include "fusion/reconstruction.h"
 
 #include <algorithm>
+#include <atomic>
 
 #include <Eigen/Geometry>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "fusion/tsdf/marching_cubes.h"
 
 namespace aoscan {
+namespace {
+
+/// Voxels take colour within this many truncation distances of the surface the frame saw: the
+/// band that a mesh vertex's eight voxels lie in, with room for the depth noise.
+constexpr float kColourBandTruncations = 0.5f;
+/// The colour of a vertex with no coloured voxel around it.
+constexpr Rgb8 kUnobservedColour{128, 128, 128};
+
+}  // namespace
 namespace {
 
 /// The model raycast is never coarser than this (pixels across): SSAO and tracking of small
@@ -37,7 +49,8 @@ int Reconstruction::model_level(const Intrinsics& intrinsics) const {
 }
 
 FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
-                                   std::shared_ptr<RaycastResult> raycast_out, bool integrate) {
+                                   std::shared_ptr<RaycastResult> raycast_out, bool integrate,
+                                   const ColourInput* colour) {
   FusionStep step;
   if (!model_ && !lost_) {
     step.new_model = true;
@@ -92,6 +105,12 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     step.integrate =
         integrator_.integrate(volume_, frame.depth_m, intrinsics, step.T_world_camera);
     step.integrated = true;
+    if (colour != nullptr && !colour->image.empty() &&
+        config_.fusion.colour == ColourFusion::kOn)
+      step.colour = colour_.integrate(volume_, integrator_.updated_blocks(), frame.depth_m,
+                                      intrinsics, step.T_world_camera, colour->image,
+                                      colour->camera, kColourBandTruncations * volume_.truncation_m(),
+                                      config_.fusion.colour_max_weight);
   }
   if (step.new_model && volume_.block_count() == 0) {
     // Nothing fused (no valid depth): nothing to track the next frame against. The model starts
@@ -156,6 +175,7 @@ void Reconstruction::restore(const std::function<void(TsdfVolume&)>& fill_volume
 void Reconstruction::reset() {
   volume_.reset();
   integrator_.reset();
+  colour_.reset();
   model_.reset();
   first_frame_reference_.reset();
   T_world_last_ = Pose();
@@ -166,8 +186,27 @@ void Reconstruction::reset() {
   relocaliser_.database().clear();
 }
 
-TriangleMesh Reconstruction::extract_mesh() const {
-  return aoscan::extract_mesh(volume_, static_cast<float>(config_.fusion.mesh_min_weight));
+TriangleMesh Reconstruction::extract_mesh(std::size_t* colour_unobserved) const {
+  TriangleMesh mesh =
+      aoscan::extract_mesh(volume_, static_cast<float>(config_.fusion.mesh_min_weight));
+  std::size_t unobserved = 0;
+  if (colour_.block_count() > 0) {
+    mesh.colours.resize(mesh.vertices.size());
+    std::atomic<std::size_t> missing{0};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.vertices.size(), 4096),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        std::size_t n = 0;
+                        for (std::size_t i = range.begin(); i != range.end(); ++i)
+                          if (!colour_.sample(volume_, mesh.vertices[i], mesh.colours[i])) {
+                            mesh.colours[i] = kUnobservedColour;
+                            ++n;
+                          }
+                        missing += n;
+                      });
+    unobserved = missing.load();
+  }
+  if (colour_unobserved != nullptr) *colour_unobserved = unobserved;
+  return mesh;
 }
 
 }  // namespace aoscan

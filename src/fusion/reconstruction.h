@@ -14,6 +14,7 @@
 #include "fusion/reconstruction_config.h"
 #include "fusion/relocaliser.h"
 #include "fusion/tracking/icp.h"
+#include "fusion/tsdf/colour_volume.h"
 #include "fusion/tsdf/raycast.h"
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
@@ -31,6 +32,14 @@ struct FusionStep {
   RelocalisationResult relocalisation;
   IcpResult icp;            ///< tracking details (empty for the first frame of a model)
   IntegrateStats integrate;
+  ColourIntegrateStats colour;  ///< the frame's colour fused (when it had colour and was fused)
+};
+
+/// A frame's colour image and the colour camera that took it (DepthFrame::colour and
+/// DepthFrame::colour_camera of the source).
+struct ColourInput {
+  const Image<Rgb8>& image;
+  const ColourCamera& camera;
 };
 
 /// Tracks and fuses a stream of preprocessed frames. World frame = camera frame of the first
@@ -52,9 +61,11 @@ class Reconstruction {
   /// With `integrate` false (paused) the frame is tracked and raycast but not fused. The raycast
   /// has the resolution of pyramid level fusion.raycast_level of `intrinsics`, but at least 320
   /// pixels across (its maps carry their intrinsics), and uses the fused frame's depth at that
-  /// level as its depth hint.
+  /// level as its depth hint. A fused frame's `colour` (may be null or empty) is fused into the
+  /// colour of the voxels it updated, unless fusion.colour is off.
   FusionStep process(const PreprocessedFrame& frame, const Intrinsics& intrinsics,
-                     std::shared_ptr<RaycastResult> raycast_out, bool integrate = true);
+                     std::shared_ptr<RaycastResult> raycast_out, bool integrate = true,
+                     const ColourInput* colour = nullptr);
 
   /// A kidnapped camera: `frame` relocalised against the model from the keyframes alone (not
   /// from the last good pose), with the check of process(); the reconstruction is left as it
@@ -74,8 +85,12 @@ class Reconstruction {
   const TsdfVolume& volume() const { return volume_; }
   /// The integrator that fuses the frames into volume() (its per-block bookkeeping).
   const TsdfIntegrator& integrator() const { return integrator_; }
-  /// The fused surface (world frame) by marching cubes with vertex normals.
-  TriangleMesh extract_mesh() const;
+  /// The colour of the volume's voxels (empty without colour).
+  const ColourVolume& colour() const { return colour_; }
+  /// The fused surface (world frame) by marching cubes with vertex normals; with vertex colours
+  /// when any colour was fused (ColourVolume::sample(); a vertex without a coloured voxel around
+  /// it is mid grey and counted in `colour_unobserved`, when given).
+  TriangleMesh extract_mesh(std::size_t* colour_unobserved = nullptr) const;
   /// The current tracking reference (null before the first frame and after reset()).
   std::shared_ptr<const RaycastResult> model() const { return model_; }
   /// Frames not fused because tracking was lost (or the model had no depth yet).
@@ -94,6 +109,7 @@ class Reconstruction {
   ReconstructionConfig config_;
   TsdfVolume volume_;
   TsdfIntegrator integrator_;
+  ColourVolume colour_;
   IcpWorkspace icp_workspace_;
   Relocaliser relocaliser_;
   std::shared_ptr<const RaycastResult> model_;

@@ -204,4 +204,41 @@ std::optional<Pose> associate(const std::vector<StampedPose>& poses, double t_s,
   return best->T_world_camera;
 }
 
+std::vector<std::optional<std::size_t>> associate_lists(const std::vector<TumListEntry>& first,
+                                                        const std::vector<TumListEntry>& second,
+                                                        double max_dt_s) {
+  std::vector<std::size_t> by_time(second.size());
+  for (std::size_t j = 0; j < by_time.size(); ++j) by_time[j] = j;
+  std::stable_sort(by_time.begin(), by_time.end(), [&](std::size_t a, std::size_t b) {
+    return second[a].timestamp_s < second[b].timestamp_s;
+  });
+  struct Pair {
+    double dt;
+    std::size_t i, j;
+  };
+  std::vector<Pair> pairs;
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    const double t = first[i].timestamp_s;
+    auto k = std::lower_bound(by_time.begin(), by_time.end(), t - max_dt_s,
+                              [&](std::size_t j, double v) { return second[j].timestamp_s < v; });
+    for (; k != by_time.end() && second[*k].timestamp_s <= t + max_dt_s; ++k) {
+      const double dt = std::abs(second[*k].timestamp_s - t);
+      if (dt <= max_dt_s) pairs.push_back({dt, i, *k});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    if (a.dt != b.dt) return a.dt < b.dt;
+    if (a.i != b.i) return a.i < b.i;
+    return a.j < b.j;
+  });
+  std::vector<std::optional<std::size_t>> partner(first.size());
+  std::vector<bool> taken(second.size(), false);
+  for (const Pair& p : pairs) {
+    if (partner[p.i] || taken[p.j]) continue;
+    partner[p.i] = p.j;
+    taken[p.j] = true;
+  }
+  return partner;
+}
+
 }  // namespace aoscan

@@ -77,4 +77,16 @@ class TrajectoryWriter {
 /// nullopt; on a tie the earlier pose wins. `poses` must be sorted by ascending timestamp.
 std::optional<Pose> associate(const std::vector<StampedPose>& poses, double t_s, double max_dt_s);
 
+/// The colour frames of a TUM recording are associated to its depth frames within this time
+/// difference (seconds): the default of the TUM RGB-D benchmark's associate.py.
+inline constexpr double kColourMaxDtS = 0.02;
+
+/// Pairs the entries of two TUM lists as the TUM RGB-D benchmark's associate.py does: of all
+/// pairs whose timestamps differ by at most `max_dt_s`, the closest pair first, each entry used
+/// at most once (ties: the earlier entry of `first`, then of `second`). Returns, for each entry
+/// of `first`, the index of its partner in `second`, or nullopt. The lists need not be sorted.
+std::vector<std::optional<std::size_t>> associate_lists(const std::vector<TumListEntry>& first,
+                                                        const std::vector<TumListEntry>& second,
+                                                        double max_dt_s);
+
 }  // namespace aoscan

@@ -43,7 +43,9 @@ PipelineResult run_pipeline(Source& source, const std::vector<StageDef>& stages,
 nlohmann::json MeshStats::to_json() const {
   return {{"vertices", vertices},
           {"faces", faces},
-          {"ao_unobserved_vertices", ao_unobserved_vertices}};
+          {"ao_unobserved_vertices", ao_unobserved_vertices},
+          {"coloured", coloured},
+          {"colour_unobserved_vertices", colour_unobserved_vertices}};
 }
 
 nlohmann::json GridStats::to_json() const {
@@ -73,7 +75,9 @@ nlohmann::json ProcessingStats::to_json() const {
           {"ao_frames_skipped_live", ao_frames_skipped_live},
           {"model_resets", model_resets},
           {"outputs_written_on_request", outputs_written_on_request},
-          {"frames_without_depth", frames_without_depth}};
+          {"frames_without_depth", frames_without_depth},
+          {"frames_with_colour", frames_with_colour},
+          {"frames_colour_skipped", frames_colour_skipped}};
 }
 
 Processing::Processing(const Config& config, std::string out_dir)
@@ -99,6 +103,11 @@ Status Processing::preprocess(FrameWork& frame) const {
   const Image<float>& depth = frame.pre.depth_m;
   if (std::none_of(depth.data(), depth.data() + depth.size(), [](float d) { return d > 0.0f; }))
     ++frames_without_depth_;
+  if (!frame.raw.colour.empty()) ++frames_with_colour_;
+  if (!frame.raw.colour_error.empty() && frames_colour_skipped_++ == 0)
+    spdlog::warn("{}: colour skipped, the depth is used (further colour skips are counted in "
+                 "stats.json, frames_colour_skipped)",
+                 frame.raw.colour_error);
   return Status::ok();
 }
 
@@ -118,8 +127,14 @@ Status Processing::track(FrameWork& frame) {
   }
   frame.integration_paused = paused_.load();
   std::shared_ptr<RaycastResult> raycast = raycasts_.acquire();
-  frame.fusion =
-      reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast, !frame.integration_paused);
+  if (frame.raw.colour_camera && !frame.raw.colour.empty()) {
+    const ColourInput colour{frame.raw.colour, *frame.raw.colour_camera};
+    frame.fusion = reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast,
+                                           !frame.integration_paused, &colour);
+  } else {
+    frame.fusion =
+        reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast, !frame.integration_paused);
+  }
   const IcpResult& icp = frame.fusion.icp;
   spdlog::debug(
       "frame {}: tracking {}, inliers {:.2f}, residual {:.1f} mm, moved {:.1f} mm {:.2f} deg",
@@ -224,7 +239,9 @@ ProcessingStats Processing::stats() const {
           ao_shedder_.skipped(),
           model_resets_.load(),
           outputs_written_.load(),
-          frames_without_depth_.load()};
+          frames_without_depth_.load(),
+          frames_with_colour_.load(),
+          frames_colour_skipped_.load()};
 }
 
 GridStats Processing::grid_stats() const {
@@ -245,9 +262,12 @@ void Processing::write_trajectory_file(const std::string& path) const {
 }
 
 Processing::ExportResult Processing::final_mesh() const {
-  auto mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh());
+  std::size_t colour_unobserved = 0;
+  auto mesh = std::make_shared<TriangleMesh>(reconstruction_.extract_mesh(&colour_unobserved));
   const std::size_t unobserved = apply_grid_ao(grid_, config_.ao.mesh_cell_factor, *mesh);
-  return {{mesh->vertices.size(), mesh->faces.size(), unobserved}, mesh};
+  return {{mesh->vertices.size(), mesh->faces.size(), unobserved, !mesh->colours.empty(),
+           colour_unobserved},
+          mesh};
 }
 
 VolumeStats Processing::write_volume(const std::string& path) const {

@@ -72,6 +72,8 @@ struct MeshStats {
   std::size_t vertices = 0;
   std::size_t faces = 0;
   std::size_t ao_unobserved_vertices = 0;  ///< vertices that took the nearest observed cell's AO
+  bool coloured = false;                   ///< the vertices have the fused colour
+  std::size_t colour_unobserved_vertices = 0;  ///< ... but no coloured voxel near these (grey)
   nlohmann::json to_json() const;
 };
 
@@ -114,6 +116,10 @@ struct ProcessingStats {
   /// Frames with no depth left after preprocessing: every raw value 0 (invalid) or outside
   /// preprocess.min_depth_m .. max_depth_m.
   std::size_t frames_without_depth = 0;
+  std::size_t frames_with_colour = 0;     ///< frames that came with a colour image
+  /// Frames whose colour was skipped (missing, corrupt, another size, no colour near in time):
+  /// their depth was used all the same.
+  std::size_t frames_colour_skipped = 0;
   nlohmann::json to_json() const;
 };
 
@@ -219,6 +225,8 @@ class Processing {
   std::atomic<std::size_t> model_resets_{0};
   std::atomic<std::size_t> outputs_written_{0};
   mutable std::atomic<std::size_t> frames_without_depth_{0};  ///< counted by the preprocess stage
+  mutable std::atomic<std::size_t> frames_with_colour_{0};     ///< counted by the preprocess stage
+  mutable std::atomic<std::size_t> frames_colour_skipped_{0};  ///< counted by the preprocess stage
 };
 
 }  // namespace aoscan

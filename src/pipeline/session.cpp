@@ -360,11 +360,15 @@ nlohmann::json report_calibration(const Source& source) {
                  source.name(), source.calibration_origin(), text.str());
   else
     spdlog::info("{}: calibration {} from {}", source.name(), text.str(), source.calibration_origin());
-  return {{"fx", k.fx},         {"fy", k.fy},
-          {"cx", k.cx},         {"cy", k.cy},
-          {"width", k.width},   {"height", k.height},
-          {"depth_scale", source.depth_scale()},
-          {"origin", source.calibration_origin()}};
+  nlohmann::json j = {{"fx", k.fx},         {"fy", k.fy},
+                      {"cx", k.cx},         {"cy", k.cy},
+                      {"width", k.width},   {"height", k.height},
+                      {"depth_scale", source.depth_scale()},
+                      {"origin", source.calibration_origin()}};
+  // The colour camera's calibration is where it came from; "" = the source has no colour.
+  j["colour_origin"] = source.colour_origin().empty() ? nlohmann::json(nullptr)
+                                                      : nlohmann::json(source.colour_origin());
+  return j;
 }
 
 /// Writes trajectory.txt, mesh.ply, volume.vdb (save_volume) and the last snapshots, each on its
@@ -472,6 +476,7 @@ SessionResult run_session(Source& source, const RunOptions& options,
     spdlog::warn("{}", warning);
   SessionResult result;
   result.calibration = report_calibration(source);
+  source.want_colour(options.config.fusion.colour == ColourFusion::kOn);
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   result.session.threads = options.threads > 0 ? std::min(options.threads, cores) : cores;
   if (options.threads > cores)

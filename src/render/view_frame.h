@@ -12,21 +12,13 @@
 
 #include <Eigen/Core>
 
+#include "core/colour.h"
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/mesh.h"
 #include "core/pose.h"
 
 namespace aoscan {
-
-/// An 8-bit sRGB-less RGB pixel (values written to PNGs and read back from GL as they are).
-struct Rgb8 {
-  std::uint8_t r = 0;
-  std::uint8_t g = 0;
-  std::uint8_t b = 0;
-  bool operator==(const Rgb8& o) const { return r == o.r && g == o.g && b == o.b; }
-  bool operator!=(const Rgb8& o) const { return !(*this == o); }
-};
 
 /// The views the live window cycles through with `v` (in this order) and the snapshots write.
 enum class View {

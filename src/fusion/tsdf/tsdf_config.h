@@ -7,6 +7,9 @@
 
 namespace aoscan {
 
+/// Whether the colour of a source that has colour is fused (ColourVolume).
+enum class ColourFusion { kOn, kOff };
+
 /// KinectFusion-style TSDF fusion.
 struct FusionConfig {
   double voxel_size_m = 4.0 / 512.0;        ///< TSDF voxel edge (m)
@@ -20,6 +23,11 @@ struct FusionConfig {
   /// depth frame: 0 = full, 1 = half (a quarter of the rays), 2 = quarter; never coarser than 320
   /// pixels across (Reconstruction keeps small frames' raycast fine enough to track).
   int raycast_level = 1;
+  /// Colour: fused when the source has colour (`on`), or ignored (`off`: no memory, no time).
+  ColourFusion colour = ColourFusion::kOn;
+  /// Cap of the per-voxel colour weight: the colour is the running mean of the last this many
+  /// observations, roughly (a lower cap follows lighting changes sooner).
+  int colour_max_weight = 16;
 
   template <class V>
   void visit(V& v) {
@@ -39,6 +47,10 @@ struct FusionConfig {
               "model raycast resolution as a pyramid level: 0 full, 1 half, 2 quarter; never "
               "coarser than 320 pixels across",
               0, 2);
+    v.choice("colour", colour, "fuse the source's colour when it has colour: on, off",
+             {{"on", ColourFusion::kOn}, {"off", ColourFusion::kOff}});
+    v.integer("colour_max_weight", colour_max_weight,
+              "cap of the per-voxel colour weight (observations averaged, roughly)", 1, 255);
   }
 };
 

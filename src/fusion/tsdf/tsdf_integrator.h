@@ -49,6 +49,8 @@ class TsdfIntegrator {
   /// Frees the scratch and the per-block bookkeeping (e.g. with TsdfVolume::reset()). Never
   /// needed for correctness: integrate() notices a volume that was reset or grew elsewhere.
   void reset();
+  /// The blocks the last integrate() updated (indices of its volume), in no particular order.
+  const std::vector<int>& updated_blocks() const { return visible_; }
   /// Bytes held by the per-block bookkeeping.
   std::size_t memory_bytes() const { return last_frame_.capacity() * sizeof(std::uint32_t); }
 

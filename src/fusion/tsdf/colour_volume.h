@@ -1,0 +1,87 @@
+/// @file colour_volume.h
+/// @brief The fused colour of the TSDF's voxels, kept beside the volume: a colour block per TSDF
+/// block that has seen colour (the same block index), so a run without colour holds none.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/colour.h"
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/pose.h"
+#include "fusion/tsdf/tsdf_volume.h"
+
+namespace aoscan {
+
+/// One voxel's colour: the running mean of its observations (8-bit RGB) and their number
+/// (capped; 0 = never coloured).
+struct ColourVoxel {
+  std::uint8_t r = 0, g = 0, b = 0;
+  std::uint8_t weight = 0;
+};
+static_assert(sizeof(ColourVoxel) == 4, "a colour voxel is 4 bytes");
+
+/// The colours of one TSDF block's voxels, in the block's voxel order (voxel_index()).
+struct ColourBlock {
+  std::array<ColourVoxel, kBlockVoxels> voxels;
+};
+
+/// What one integrate() call did.
+struct ColourIntegrateStats {
+  int voxels_coloured = 0;   ///< voxels that took a colour sample
+  int blocks_allocated = 0;  ///< colour blocks newly allocated
+};
+
+/// Colour of a TsdfVolume's voxels. One writer (integrate(), reset()), any number of readers
+/// between writes, like the volume.
+class ColourVolume {
+ public:
+  /// Fuses `colour` (seen by `camera`, the colour camera of the depth camera at T_world_camera)
+  /// into the voxels of `blocks` (indices of `volume`'s blocks, e.g. those the depth frame just
+  /// updated): a voxel takes the colour at its projection when the depth frame saw the surface
+  /// within `band_m` of it (|depth(pixel) - z| <= band_m at the voxel's depth pixel), and its colour
+  /// becomes the running mean, its weight capped at `max_weight`. The colour is sampled
+  /// bilinearly (a registered camera: the voxel's depth pixel itself). Multi-threaded over blocks;
+  /// the result does not depend on the thread count. Throws usage_error when the colour image's
+  /// size differs from the camera's or the depth's from `depth_intrinsics`.
+  ColourIntegrateStats integrate(const TsdfVolume& volume, const std::vector<int>& blocks,
+                                 const Image<float>& depth_m, const Intrinsics& depth_intrinsics,
+                                 const Pose& T_world_camera, const Image<Rgb8>& colour,
+                                 const ColourCamera& camera, float band_m, int max_weight);
+
+  /// The colour at world point `p` (metres): the mean of the coloured voxels among the eight
+  /// around it, each weighted by its trilinear weight; false when none of them is coloured.
+  bool sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rgb8& out) const;
+
+  /// The colour block of TSDF block `index`, or nullptr when it has none.
+  const ColourBlock* block(int index) const {
+    return index >= 0 && static_cast<std::size_t>(index) < blocks_.size()
+               ? blocks_[static_cast<std::size_t>(index)].get()
+               : nullptr;
+  }
+  /// Gives TSDF block `index` a colour block (restoring a saved model); returns it.
+  ColourBlock& allocate(int index);
+  /// Colour blocks held.
+  std::size_t block_count() const { return allocated_; }
+  /// Bytes held by the colour blocks and the index.
+  std::size_t memory_bytes() const {
+    return allocated_ * sizeof(ColourBlock) + blocks_.capacity() * sizeof(blocks_[0]);
+  }
+  /// Drops every colour (with TsdfVolume::reset()).
+  void reset() {
+    blocks_.clear();
+    allocated_ = 0;
+  }
+
+ private:
+  std::vector<std::unique_ptr<ColourBlock>> blocks_;  ///< by TSDF block index
+  std::size_t allocated_ = 0;
+};
+
+}  // namespace aoscan

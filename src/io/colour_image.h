@@ -1,0 +1,29 @@
+/// @file colour_image.h
+/// @brief Colour images of recordings (JPEG, PNG and whatever else OpenCV's image codecs
+/// decode) as 8-bit RGB, and the lossless PNG that `record` writes.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "core/colour.h"
+#include "core/image.h"
+#include "core/status.h"
+
+namespace aoscan {
+
+/// Decodes the image at `path` into `out` as 8-bit RGB, reusing `out`'s allocation (safe to call
+/// from several threads). 8-bit grey is repeated in the three channels; 16-bit images keep
+/// round(v / 257) (the nearest 8-bit value); an alpha channel is dropped. Returns ok, or
+/// corrupt_frame with one line "PATH: reason" (or "PATH (frame N): reason") for a missing or
+/// unreadable file, bytes no codec decodes, or a pixel type that is not 8- or 16-bit integer.
+/// On failure `out`'s content is unspecified. Never throws.
+Status read_colour_image(const std::string& path, Image<Rgb8>& out,
+                         std::optional<std::uint64_t> frame_index = std::nullopt);
+
+/// Writes `image` as an 8-bit RGB PNG at `path` itself (wrap it in write_atomically() for an
+/// output). Throws like write_png().
+void write_colour_png(const std::string& path, const Image<Rgb8>& image);
+
+}  // namespace aoscan

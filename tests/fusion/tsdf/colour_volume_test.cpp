@@ -1,0 +1,207 @@
+// Tests for src/fusion/tsdf/colour_volume.cpp: colour fused from registered and unregistered
+// colour cameras against the exact colour of the scene, the running mean and its cap, sampling,
+// thread independence, bad input.
+#include "fusion/tsdf/colour_volume.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "core/status.h"
+#include "fusion/tsdf/tsdf_integrator.h"
+#include "support/test_scenes.h"
+
+namespace aoscan {
+namespace {
+
+const Intrinsics kDepth{640, 480, 585.0, 585.0, 320.0, 240.0};
+constexpr double kPlaneZ = 1.5;
+constexpr Rgb8 kLeft{200, 30, 40}, kRight{20, 60, 220};
+
+/// The scene's colour at a point of the plane: red left of x = 0, blue right of it.
+Rgb8 scene_colour(double x_world) {
+  return x_world < 0.0 ? kLeft : kRight;
+}
+
+/// The colour image `camera` sees of the plane z = kPlaneZ (depth camera = world frame). The
+/// camera is only translated from the depth camera, so its rays meet the plane at depth
+/// kPlaneZ + t.z in its own frame.
+Image<Rgb8> render_colour(const ColourCamera& camera) {
+  const Intrinsics& k = camera.intrinsics;
+  const Eigen::Vector3d centre = camera.T_colour_depth.inverse().translation();
+  const double depth = kPlaneZ - centre.z();
+  Image<Rgb8> image(k.width, k.height);
+  for (int v = 0; v < k.height; ++v)
+    for (int u = 0; u < k.width; ++u)
+      image(u, v) = scene_colour(centre.x() + (u - k.cx) / k.fx * depth);
+  return image;
+}
+
+struct Fused {
+  TsdfVolume volume{FusionConfig{}};
+  TsdfIntegrator integrator;
+  ColourVolume colour;
+  Image<float> depth;
+};
+
+void fuse(Fused& f, const ColourCamera& camera, const Image<Rgb8>& image, int max_weight = 16) {
+  test::Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0, 0, 1), kPlaneZ});
+  test::render(scene, kDepth, Pose::identity(), f.depth);
+  f.integrator.integrate(f.volume, f.depth, kDepth, Pose::identity());
+  f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
+                     image, camera, 0.5f * f.volume.truncation_m(), max_weight);
+}
+
+/// Every coloured voxel more than `margin` from the colour boundary x = 0 has the scene's colour.
+void expect_exact_away_from_boundary(const Fused& f, double margin) {
+  int checked = 0;
+  for (int i = 0; i < f.volume.block_count(); ++i) {
+    const ColourBlock* cb = f.colour.block(i);
+    if (cb == nullptr) continue;
+    const Eigen::Vector3i base = f.volume.block_coord(i) * kBlockSize;
+    for (int z = 0; z < kBlockSize; ++z)
+      for (int y = 0; y < kBlockSize; ++y)
+        for (int x = 0; x < kBlockSize; ++x) {
+          const ColourVoxel& c = cb->voxels[static_cast<std::size_t>(voxel_index(x, y, z))];
+          if (c.weight == 0) continue;
+          const double xw = (base.x() + x) * static_cast<double>(f.volume.voxel_size_m());
+          if (std::abs(xw) < margin) continue;
+          const Rgb8 want = scene_colour(xw);
+          ASSERT_EQ((Rgb8{c.r, c.g, c.b}), want) << "voxel at x = " << xw;
+          ++checked;
+        }
+  }
+  EXPECT_GT(checked, 10000);
+}
+
+TEST(ColourVolume, RegisteredColourIsExactOnTheSurface) {
+  Fused f;
+  const ColourCamera camera = ColourCamera::registered_to(kDepth);
+  fuse(f, camera, render_colour(camera));
+  EXPECT_GT(f.colour.block_count(), 0u);
+  // A voxel's depth pixel sees the plane's colour at the voxel's own x up to half a pixel.
+  expect_exact_away_from_boundary(f, 2.0 * kPlaneZ / kDepth.fx);
+  Rgb8 out;
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(-0.2f, 0.1f, kPlaneZ), out));
+  EXPECT_EQ(out, kLeft);
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.3f, -0.1f, kPlaneZ), out));
+  EXPECT_EQ(out, kRight);
+  // Far from every coloured voxel there is no colour.
+  EXPECT_FALSE(f.colour.sample(f.volume, Eigen::Vector3f(0.0f, 0.0f, 0.5f), out));
+}
+
+TEST(ColourVolume, UnregisteredColourCameraIsProjectedThroughItsCalibration) {
+  Fused f;
+  ColourCamera camera;
+  camera.intrinsics = Intrinsics{1280, 960, 1050.0, 1050.0, 640.0, 480.0};
+  // The colour camera 5 cm right of and 1 cm behind the depth camera.
+  camera.T_colour_depth = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.05, 0.0, 0.01));
+  fuse(f, camera, render_colour(camera));
+  // Bilinear samples blend within a colour pixel of the boundary.
+  expect_exact_away_from_boundary(f, 0.01);
+  Rgb8 out;
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(-0.25f, 0.0f, kPlaneZ), out));
+  EXPECT_EQ(out, kLeft);
+  // Taking the colour camera's image as registered instead puts the boundary 4.5 cm left of
+  // where it is: a red voxel 3 cm left of it comes out blue.
+  Fused wrong;
+  const ColourCamera as_registered = ColourCamera::registered_to(kDepth);
+  Image<Rgb8> shifted(kDepth.width, kDepth.height);
+  const Image<Rgb8> image = render_colour(camera);
+  for (int v = 0; v < kDepth.height; ++v)
+    for (int u = 0; u < kDepth.width; ++u) shifted(u, v) = image(2 * u, 2 * v);
+  fuse(wrong, as_registered, shifted);
+  ASSERT_TRUE(wrong.colour.sample(wrong.volume, Eigen::Vector3f(-0.03f, 0.0f, kPlaneZ), out));
+  EXPECT_EQ(out, kRight);
+}
+
+TEST(ColourVolume, RunningMeanWithCappedWeight) {
+  Fused f;
+  const ColourCamera camera = ColourCamera::registered_to(kDepth);
+  Image<Rgb8> grey(kDepth.width, kDepth.height, Rgb8{100, 100, 100});
+  Image<Rgb8> white(kDepth.width, kDepth.height, Rgb8{200, 200, 200});
+  fuse(f, camera, grey, 2);
+  Rgb8 out;
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
+  EXPECT_EQ(out, (Rgb8{100, 100, 100}));
+  // Weight 1 and 1 more: the mean of the two.
+  f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
+                     white, camera, 0.5f * f.volume.truncation_m(), 2);
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
+  EXPECT_EQ(out, (Rgb8{150, 150, 150}));
+  // The cap of 2: (150 * 2 + 200) / 3.
+  f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
+                     white, camera, 0.5f * f.volume.truncation_m(), 2);
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
+  EXPECT_EQ(out, (Rgb8{167, 167, 167}));
+}
+
+TEST(ColourVolume, OnlyVoxelsNearTheSurfaceTheFrameSawAreColoured) {
+  Fused f;
+  const ColourCamera camera = ColourCamera::registered_to(kDepth);
+  fuse(f, camera, render_colour(camera));
+  const float band = 0.5f * f.volume.truncation_m();
+  for (int i = 0; i < f.volume.block_count(); ++i) {
+    const ColourBlock* cb = f.colour.block(i);
+    if (cb == nullptr) continue;
+    const Eigen::Vector3i base = f.volume.block_coord(i) * kBlockSize;
+    for (int z = 0; z < kBlockSize; ++z)
+      for (int y = 0; y < kBlockSize; ++y)
+        for (int x = 0; x < kBlockSize; ++x)
+          if (cb->voxels[static_cast<std::size_t>(voxel_index(x, y, z))].weight > 0)
+            ASSERT_LE(std::abs((base.z() + z) * f.volume.voxel_size_m() - kPlaneZ), band + 1e-6);
+  }
+}
+
+TEST(ColourVolume, SameColourForOneAndTwoThreads) {
+  const ColourCamera camera = ColourCamera::registered_to(kDepth);
+  Fused one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    fuse(one, camera, render_colour(camera));
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    fuse(two, camera, render_colour(camera));
+  }
+  ASSERT_EQ(one.colour.block_count(), two.colour.block_count());
+  for (int i = 0; i < one.volume.block_count(); ++i) {
+    ASSERT_EQ(one.colour.block(i) == nullptr, two.colour.block(i) == nullptr);
+    if (one.colour.block(i) != nullptr)
+      ASSERT_EQ(0, std::memcmp(one.colour.block(i), two.colour.block(i), sizeof(ColourBlock)));
+  }
+}
+
+TEST(ColourVolume, BadInputIsRefusedOrIgnored) {
+  Fused f;
+  const ColourCamera camera = ColourCamera::registered_to(kDepth);
+  fuse(f, camera, render_colour(camera));
+  const std::size_t blocks = f.colour.block_count();
+  const Image<Rgb8> small(320, 240);
+  EXPECT_THROW(f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth,
+                                  Pose::identity(), small, camera, 0.01f, 16),
+               Error);
+  const Image<float> small_depth(320, 240, 1.0f);
+  EXPECT_THROW(f.colour.integrate(f.volume, f.integrator.updated_blocks(), small_depth, kDepth,
+                                  Pose::identity(), render_colour(camera), camera, 0.01f, 16),
+               Error);
+  // A pose that is not finite changes nothing.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Pose bad(Eigen::Matrix3d::Identity(), Eigen::Vector3d(nan, 0.0, 0.0));
+  const ColourIntegrateStats stats =
+      f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, bad,
+                         render_colour(camera), camera, 0.01f, 16);
+  EXPECT_EQ(stats.voxels_coloured, 0);
+  EXPECT_EQ(f.colour.block_count(), blocks);
+  f.colour.reset();
+  EXPECT_EQ(f.colour.block_count(), 0u);
+  Rgb8 out;
+  EXPECT_FALSE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
+}
+
+}  // namespace
+}  // namespace aoscan
