@@ -70,8 +70,8 @@ std::vector<Eigen::Vector3f> unit_normals(const TriangleMesh& mesh) {
   std::vector<Eigen::Vector3d> sum(mesh.vertices.size(), Eigen::Vector3d::Zero());
   for (const Eigen::Vector3i& f : mesh.faces) {
     const Eigen::Vector3d a = mesh.vertices[f[0]].cast<double>();
-    const Eigen::Vector3d area = (mesh.vertices[f[1]].cast<double>() - a)
-                                     .cross(mesh.vertices[f[2]].cast<double>() - a);
+    const Eigen::Vector3d area =
+        (mesh.vertices[f[1]].cast<double>() - a).cross(mesh.vertices[f[2]].cast<double>() - a);
     for (int k = 0; k < 3; ++k) sum[f[k]] += area;
   }
   for (const std::size_t i : degenerate) {
@@ -124,9 +124,9 @@ tinygltf::Model gltf_model(const TriangleMesh& mesh, const MeshWriteOptions& opt
 
   if (normals) {
     const std::vector<Eigen::Vector3f> unit = unit_normals(mesh);
-    primitive.attributes["NORMAL"] = add_accessor(
-        model, add_view(model, unit.data(), 12 * n, TINYGLTF_TARGET_ARRAY_BUFFER),
-        TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    primitive.attributes["NORMAL"] =
+        add_accessor(model, add_view(model, unit.data(), 12 * n, TINYGLTF_TARGET_ARRAY_BUFFER),
+                     TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
   }
   if (colours) {
     std::array<float, 256> linear;
@@ -138,23 +138,23 @@ tinygltf::Model gltf_model(const TriangleMesh& mesh, const MeshWriteOptions& opt
       rgb[3 * i + 1] = linear[c.g];
       rgb[3 * i + 2] = linear[c.b];
     }
-    primitive.attributes["COLOR_0"] = add_accessor(
-        model, add_view(model, rgb.data(), 12 * n, TINYGLTF_TARGET_ARRAY_BUFFER),
-        TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    primitive.attributes["COLOR_0"] =
+        add_accessor(model, add_view(model, rgb.data(), 12 * n, TINYGLTF_TARGET_ARRAY_BUFFER),
+                     TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
   }
   if (ao) {
     std::vector<float> values(n);
     for (std::size_t i = 0; i < n; ++i) values[i] = clamped_ao(mesh.quality[i]);
-    primitive.attributes["_AO"] = add_accessor(
-        model, add_view(model, values.data(), 4 * n, TINYGLTF_TARGET_ARRAY_BUFFER),
-        TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, n);
+    primitive.attributes["_AO"] =
+        add_accessor(model, add_view(model, values.data(), 4 * n, TINYGLTF_TARGET_ARRAY_BUFFER),
+                     TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, n);
   }
   // Face indices are checked to lie in [0, n): their int bits are the unsigned values.
-  primitive.indices = add_accessor(
-      model,
-      add_view(model, mesh.faces.data(), 12 * mesh.faces.size(),
-               TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
-      TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, 3 * mesh.faces.size());
+  primitive.indices = add_accessor(model,
+                                   add_view(model, mesh.faces.data(), 12 * mesh.faces.size(),
+                                            TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+                                   TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR,
+                                   3 * mesh.faces.size());
 
   tinygltf::Material material;
   material.name = "aoscan";
@@ -178,8 +178,7 @@ float srgb_to_linear(unsigned char srgb) {
   return static_cast<float>(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4));
 }
 
-void write_glb(const std::string& path, const TriangleMesh& mesh,
-               const MeshWriteOptions& options) {
+void write_glb(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options) {
   check_mesh_for_writing(path, mesh);
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
     if (!mesh.vertices[i].allFinite())

@@ -267,8 +267,7 @@ void PlyWriter::finish() {
   if (!closed || !ok_) throw_write_failed(path_);
 }
 
-void write_ply(const std::string& path, const TriangleMesh& mesh,
-               const MeshWriteOptions& options) {
+void write_ply(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options) {
   check_mesh_for_writing(path, mesh);
   const std::size_t n = mesh.vertices.size();
   write_atomically(path, [&mesh, &options, n](const std::string& partial) {
