@@ -45,12 +45,6 @@ float load_f32(const unsigned char* b) {
   return f;
 }
 
-unsigned char grey(float quality) {
-  if (!(quality > 0.0f)) return 0;  // also NaN
-  if (quality >= 1.0f) return 255;
-  return static_cast<unsigned char>(std::lround(255.0 * static_cast<double>(quality)));
-}
-
 // ---- reading ----------------------------------------------------------------------------------
 
 enum class Type { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
@@ -233,13 +227,17 @@ PlyWriter::~PlyWriter() {
 }
 
 void PlyWriter::vertex(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float quality) {
+  vertex(p, n, quality, ao_grey(quality));
+}
+
+void PlyWriter::vertex(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float quality,
+                       const Rgb8& colour) {
   if (vertices_left_ == 0) throw usage_error(path_ + ": more vertices than the header says");
   --vertices_left_;
   for (int k = 0; k < 3; ++k) put_f32(buffer_, p[k]);
   for (int k = 0; k < 3; ++k) put_f32(buffer_, n[k]);
   put_f32(buffer_, quality);
-  const unsigned char g = grey(quality);
-  buffer_.insert(buffer_.end(), {g, g, g});
+  buffer_.insert(buffer_.end(), {colour.r, colour.g, colour.b});
   if (buffer_.size() >= kChunk) flush();
 }
 
@@ -269,28 +267,16 @@ void PlyWriter::finish() {
   if (!closed || !ok_) throw_write_failed(path_);
 }
 
-void write_ply(const std::string& path, const TriangleMesh& mesh) {
+void write_ply(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options) {
+  check_mesh_for_writing(path, mesh);
   const std::size_t n = mesh.vertices.size();
-  if (!mesh.normals.empty() && mesh.normals.size() != n)
-    throw usage_error(path + ": mesh has " + std::to_string(mesh.normals.size()) + " normals for " +
-                      std::to_string(n) + " vertices");
-  if (!mesh.quality.empty() && mesh.quality.size() != n)
-    throw usage_error(path + ": mesh has " + std::to_string(mesh.quality.size()) +
-                      " quality values for " + std::to_string(n) + " vertices");
-  if (n > static_cast<std::size_t>(INT32_MAX))
-    throw usage_error(path + ": too many vertices for int face indices");
-  for (std::size_t f = 0; f < mesh.faces.size(); ++f)
-    for (int k = 0; k < 3; ++k)
-      if (mesh.faces[f][k] < 0 || static_cast<std::size_t>(mesh.faces[f][k]) >= n)
-        throw usage_error(path + ": face " + std::to_string(f) + " has vertex index " +
-                          std::to_string(mesh.faces[f][k]) + " out of range");
-
-  write_atomically(path, [&mesh, n](const std::string& partial) {
+  write_atomically(path, [&mesh, &options, n](const std::string& partial) {
     PlyWriter writer(partial, n, mesh.faces.size());
     for (std::size_t i = 0; i < n; ++i)
       writer.vertex(mesh.vertices[i],
                     mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i],
-                    mesh.quality.empty() ? 1.0f : mesh.quality[i]);
+                    mesh.quality.empty() ? 1.0f : mesh.quality[i],
+                    written_colour(mesh, i, options));
     for (const Eigen::Vector3i& face : mesh.faces) writer.face(face);
     writer.finish();
   });

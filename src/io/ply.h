@@ -10,7 +10,9 @@
 
 #include <Eigen/Core>
 
+#include "core/colour.h"
 #include "core/mesh.h"
+#include "io/mesh_write.h"
 
 namespace aoscan {
 
@@ -26,11 +28,14 @@ constexpr std::size_t kPlyVertexBytes = 7 * 4 + 3;
 
 /// Writes `mesh` (metres) as binary little-endian PLY with the header of ply_header(): per vertex
 /// float x y z, float nx ny nz (zeros when the mesh has no normals), float quality (the AO; 1 when
-/// the mesh has none), uchar red = green = blue = round(255 * clamp(quality, 0, 1)); per face a
-/// uchar 3 and three int indices. Identical meshes give identical bytes. Throws usage_error for an
-/// inconsistent mesh (normals/quality count, face index out of range) and Error (exit code 1) when
-/// the file cannot be written.
-void write_ply(const std::string& path, const TriangleMesh& mesh);
+/// the mesh has none), uchar red green blue: the mesh's colour when it has colours (with
+/// `options.bake_ao`, `--bake-ao`, the colour multiplied by the AO: round(colour * clamp(quality,
+/// 0, 1)) per channel), else the AO as grey, red = green = blue = round(255 * clamp(quality, 0, 1))
+/// (written_colour(), io/mesh_write.h); per face a uchar 3 and three int indices. Identical meshes
+/// give identical bytes. Throws usage_error for an inconsistent mesh (normals/quality/colours
+/// count, face index out of range) and Error (exit code 1) when the file cannot be written.
+void write_ply(const std::string& path, const TriangleMesh& mesh,
+               const MeshWriteOptions& options = {});
 
 /// Writes a PLY of write_ply()'s layout one vertex (then one face) at a time, for outputs too
 /// large to hold as one TriangleMesh: the counts are fixed up front and finish() checks that
@@ -42,8 +47,11 @@ class PlyWriter {
   ~PlyWriter();
   PlyWriter(const PlyWriter&) = delete;
   PlyWriter& operator=(const PlyWriter&) = delete;
-  /// One vertex: position, normal, quality (grey colour from it).
+  /// One vertex: position, normal, quality (grey colour from it: ao_grey()).
   void vertex(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float quality);
+  /// One vertex: position, normal, quality, and `colour` as red, green, blue (written as given).
+  void vertex(const Eigen::Vector3f& p, const Eigen::Vector3f& n, float quality,
+              const Rgb8& colour);
   /// One triangle (after the last vertex).
   void face(const Eigen::Vector3i& f);
   /// Flushes and closes the file.

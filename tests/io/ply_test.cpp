@@ -3,7 +3,9 @@
 /// ASCII reading and rejected inputs.
 #include "io/ply.h"
 
+#include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <functional>
 
 #include <gtest/gtest.h>
@@ -217,6 +219,100 @@ TEST(Ply, WriteRejectsInconsistentMeshAndUnwritablePath) {
               write_ply(dir.file("no/such/dir/a.ply"), square());
             }).find("no/such/dir/a.ply"),
             std::string::npos);
+}
+
+/// square() with a colour per vertex.
+TriangleMesh coloured_square() {
+  TriangleMesh m = square();
+  m.colours = {{255, 0, 128}, {255, 0, 128}, {1, 2, 3}, {200, 100, 50}};
+  return m;
+}
+
+/// The red, green, blue bytes of vertex `i` of a file of write_ply()'s layout with `faces` faces.
+Rgb8 colour_at(const std::string& bytes, std::size_t vertices, std::size_t faces, std::size_t i) {
+  const std::size_t at = ply_header(vertices, faces).size() + i * kVertexBytes + 28;
+  return {static_cast<std::uint8_t>(bytes[at]), static_cast<std::uint8_t>(bytes[at + 1]),
+          static_cast<std::uint8_t>(bytes[at + 2])};
+}
+
+TEST(PlyColour, ColoursAreWrittenAsRedGreenBlue) {
+  ScratchDir dir;
+  const TriangleMesh m = coloured_square();
+  write_ply(dir.file("mesh.ply"), m);
+  const std::string bytes = read_bytes(dir.file("mesh.ply"));
+  ASSERT_EQ(bytes.size(), ply_header(4, 2).size() + 4 * kVertexBytes + 2 * kFaceBytes);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(colour_at(bytes, 4, 2, i), m.colours[i]) << i;
+  // Everything but the colour bytes is as without colours.
+  TriangleMesh grey = m;
+  grey.colours.clear();
+  write_ply(dir.file("grey.ply"), grey);
+  std::string without = read_bytes(dir.file("grey.ply"));
+  for (std::size_t i = 0; i < 4; ++i)
+    without.replace(ply_header(4, 2).size() + i * kVertexBytes + 28, 3,
+                    bytes.substr(ply_header(4, 2).size() + i * kVertexBytes + 28, 3));
+  EXPECT_EQ(bytes, without);
+  const TriangleMesh back = read_ply(dir.file("mesh.ply"));
+  EXPECT_EQ(back.vertices, m.vertices);
+  EXPECT_EQ(back.quality, m.quality);
+}
+
+TEST(PlyColour, BakeAoMultipliesTheColourByTheAo) {
+  ScratchDir dir;
+  TriangleMesh m = coloured_square();  // quality 0, 0.25, 0.5, 1
+  write_ply(dir.file("mesh.ply"), m, MeshWriteOptions{true});
+  const std::string bytes = read_bytes(dir.file("mesh.ply"));
+  EXPECT_EQ(colour_at(bytes, 4, 2, 0), (Rgb8{0, 0, 0}));
+  EXPECT_EQ(colour_at(bytes, 4, 2, 1), (Rgb8{64, 0, 32}));  // 63.75, 0, 32
+  EXPECT_EQ(colour_at(bytes, 4, 2, 2), (Rgb8{1, 1, 2}));    // 0.5, 1, 1.5: halves round up
+  EXPECT_EQ(colour_at(bytes, 4, 2, 3), (Rgb8{200, 100, 50}));
+  EXPECT_EQ(float_at(bytes, ply_header(4, 2).size() + kVertexBytes + 24), 0.25f);  // AO kept
+  // The AO is clamped to [0, 1] (NaN as 0); without quality it is 1.
+  m.quality = {1.5f, -0.5f, std::nanf(""), 0.5f};
+  write_ply(dir.file("mesh.ply"), m, MeshWriteOptions{true});
+  const std::string clamped = read_bytes(dir.file("mesh.ply"));
+  EXPECT_EQ(colour_at(clamped, 4, 2, 0), (Rgb8{255, 0, 128}));
+  EXPECT_EQ(colour_at(clamped, 4, 2, 1), (Rgb8{0, 0, 0}));
+  EXPECT_EQ(colour_at(clamped, 4, 2, 2), (Rgb8{0, 0, 0}));
+  EXPECT_EQ(colour_at(clamped, 4, 2, 3), (Rgb8{100, 50, 25}));
+  m.quality.clear();
+  write_ply(dir.file("a.ply"), m, MeshWriteOptions{true});
+  write_ply(dir.file("b.ply"), m);
+  EXPECT_EQ(read_bytes(dir.file("a.ply")), read_bytes(dir.file("b.ply")));
+}
+
+TEST(PlyColour, BakeAoWithoutColoursChangesNothing) {
+  ScratchDir dir;
+  write_ply(dir.file("a.ply"), square(), MeshWriteOptions{true});
+  write_ply(dir.file("b.ply"), square());
+  EXPECT_EQ(read_bytes(dir.file("a.ply")), read_bytes(dir.file("b.ply")));
+}
+
+TEST(PlyColour, WriterTakesAColourBesideTheGreyOfItsQuality) {
+  ScratchDir dir;
+  const TriangleMesh m = coloured_square();
+  PlyWriter writer(dir.file("streamed.ply"), 4, 2);
+  writer.vertex(m.vertices[0], m.normals[0], m.quality[0], m.colours[0]);
+  writer.vertex(m.vertices[1], m.normals[1], m.quality[1], m.colours[1]);
+  writer.vertex(m.vertices[2], m.normals[2], m.quality[2], m.colours[2]);
+  writer.vertex(m.vertices[3], m.normals[3], m.quality[3]);  // grey 255
+  for (const Eigen::Vector3i& f : m.faces) writer.face(f);
+  writer.finish();
+  TriangleMesh expected = m;
+  expected.colours[3] = {255, 255, 255};
+  write_ply(dir.file("whole.ply"), expected);
+  EXPECT_EQ(read_bytes(dir.file("streamed.ply")), read_bytes(dir.file("whole.ply")));
+}
+
+TEST(PlyColour, ColourCountMustMatchTheVertices) {
+  ScratchDir dir;
+  TriangleMesh m = coloured_square();
+  m.colours.pop_back();
+  EXPECT_EQ(error_message([&] { write_ply(dir.file("a.ply"), m); }, ExitCode::kUsage),
+            dir.file("a.ply") + ": mesh has 3 colours for 4 vertices");
+  m.colours.resize(5);
+  EXPECT_EQ(error_message([&] { write_ply(dir.file("a.ply"), m); }, ExitCode::kUsage),
+            dir.file("a.ply") + ": mesh has 5 colours for 4 vertices");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("a.ply")));
 }
 
 }  // namespace
