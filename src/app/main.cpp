@@ -170,6 +170,9 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
                "also write the TSDF to OUT/volume.vdb: OpenVDB float grids 'tsdf' (signed "
                "distance, m) and 'weight', voxel size fusion.voxel_size_m, trajectory.txt's world "
                "frame");
+  cmd.add_flag("--bake-ao", args.run.bake_ao,
+               "multiply the colour of mesh.ply and mesh.glb by the AO (for viewers that ignore "
+               "the AO attribute)");
   cmd.add_flag("--save-session", args.run.save_session,
                "also write what is needed to continue this session later into OUT/session/ "
                "(TSDF, MVAO grid, keyframes, trajectory, configuration)");

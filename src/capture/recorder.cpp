@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <spdlog/spdlog.h>
 
@@ -14,6 +15,7 @@
 #include "capture/png_depth.h"
 #include "capture/read_status.h"
 #include "io/camera_json.h"
+#include "io/colour_image.h"
 #include "io/ply.h"
 #include "io/tum.h"
 
@@ -48,6 +50,10 @@ RecordStats record_source(Source& source, const std::string& dir,
 
   const std::string gt_path = root + "/groundtruth.txt";
   std::unique_ptr<TrajectoryWriter> ground_truth;
+  // Colour, from the first frame that has it: rgb/ and rgb.txt, the colour camera in camera.json.
+  const std::string colour_list_path = root + "/rgb.txt";
+  std::optional<OutputFile> colour_list;
+  std::optional<ColourCamera> colour_camera;
   RecordStats stats;
   DepthFrame frame;
   std::string png_path;
@@ -57,6 +63,7 @@ RecordStats record_source(Source& source, const std::string& dir,
   // Ends the recording: files closed (and checked) before the caller sees the outcome.
   auto finish = [&] {
     close_checked(list, list_path);
+    if (colour_list) close_checked(*colour_list, colour_list_path);
     if (ground_truth) ground_truth->close();
   };
 
@@ -105,6 +112,29 @@ RecordStats record_source(Source& source, const std::string& dir,
     if (std::fprintf(list.get(), "%.6f %s\n", frame.timestamp_s, name) < 0 ||
         std::fflush(list.get()) != 0)
       throw_write_failed(list_path);
+    if (!frame.colour.empty() && frame.colour_camera) {
+      if (!colour_list) {
+        colour_camera = frame.colour_camera;
+        write_camera_json(camera_path, calibration, depth_scale, &*colour_camera);
+        require_writable_folder(root + "/rgb", root + "/rgb");
+        colour_list.emplace(open_output(colour_list_path));
+        std::fprintf(colour_list->get(), "# colour images recorded by aoscan from %s\n# timestamp "
+                     "filename\n", one_line(source.name()).c_str());
+      }
+      std::snprintf(name, sizeof name, "rgb/%06llu.png", static_cast<unsigned long long>(sequence));
+      png_path.assign(root).append("/").append(name);
+      try {
+        write_colour_png(png_path, frame.colour);
+      } catch (const Error&) {
+        std::error_code ec;
+        fs::remove(png_path, ec);
+        finish();
+        throw;
+      }
+      if (std::fprintf(colour_list->get(), "%.6f %s\n", frame.colour_timestamp_s, name) < 0 ||
+          std::fflush(colour_list->get()) != 0)
+        throw_write_failed(colour_list_path);
+    }
     if (frame.T_world_camera_gt) {
       if (!ground_truth)
         ground_truth = std::make_unique<TrajectoryWriter>(

@@ -61,12 +61,17 @@ class Source {
   /// frame returns end of stream within kStopPollInterval of it instead of waiting out its
   /// timeout. Set by the reading loop before its first read; the flag must outlive the reads.
   void watch_stop(const std::atomic<bool>* stop) { stop_ = stop; }
+  /// With false, a source that has colour delivers none (nothing is decoded); set before the
+  /// first read.
+  void want_colour(bool wanted) { colour_wanted_ = wanted; }
 
  protected:
   bool stop_requested() const { return stop_ != nullptr && stop_->load(); }
+  bool colour_wanted() const { return colour_wanted_; }
 
  private:
   const std::atomic<bool>* stop_ = nullptr;
+  bool colour_wanted_ = true;
 };
 
 /// How often every wait of the program (replay pacing, a camera's frame wait) looks at the stop

@@ -19,12 +19,14 @@ class SynthSource final : public Source {
         params_(std::move(params)),
         scene_(AnalyticScene::make(params_.scene)),
         intrinsics_(params_.intrinsics()),
-        mesh_(scene_.to_mesh()) {}
+        mesh_(scene_.to_mesh()),
+        colour_(params_.colour) {}
 
   Status read(DepthFrame& frame) override {
     if (next_ >= static_cast<std::uint64_t>(params_.frames)) return Status::end_of_stream();
     try {
       const std::uint64_t index = next_++;
+      params_.colour = colour_ && colour_wanted();
       render_synth_frame(scene_, params_, index, frame);
       frame.origin = spec_ + " frame " + std::to_string(index);
       return Status::ok();
@@ -35,6 +37,9 @@ class SynthSource final : public Source {
 
   std::string name() const override { return spec_; }
   std::string calibration_origin() const override { return "the synthetic camera"; }
+  std::string colour_origin() const override {
+    return colour_ ? "the synthetic colour camera (registered)" : "";
+  }
   const Intrinsics& intrinsics() const override { return intrinsics_; }
   double depth_scale() const override { return kSynthDepthScale; }
   std::optional<std::size_t> size() const override {
@@ -56,6 +61,7 @@ class SynthSource final : public Source {
   AnalyticScene scene_;
   Intrinsics intrinsics_;
   TriangleMesh mesh_;
+  bool colour_;  ///< the spec asked for colour (colour=on)
   std::uint64_t next_ = 0;
 };
 

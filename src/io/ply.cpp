@@ -357,13 +357,15 @@ PlyHeader parse_header(const std::string& path, const std::string& text) {
 }
 
 /// Column roles of the vertex element `e`: 0-2 position, 3-5 normal (only when all three are
-/// there), 6 quality, -1 ignored. Sizes the mesh's vertex arrays for the columns it has.
+/// there), 6 quality, 7-9 red, green, blue (only when all three are there), -1 ignored. Sizes
+/// the mesh's vertex arrays for the columns it has.
 std::vector<int> vertex_roles(const std::string& path, const Element& e, TriangleMesh& mesh) {
   std::vector<int> role(e.properties.size(), -1);
-  static const char* kNames[] = {"x", "y", "z", "nx", "ny", "nz", "quality"};
-  bool found[7] = {};
+  static const char* kNames[] = {"x", "y", "z", "nx", "ny", "nz", "quality", "red", "green", "blue"};
+  constexpr int kRoles = 10;
+  bool found[kRoles] = {};
   for (std::size_t i = 0; i < e.properties.size(); ++i)
-    for (int r = 0; r < 7; ++r)
+    for (int r = 0; r < kRoles; ++r)
       if (e.properties[i].name == kNames[r] && !e.properties[i].is_list) {
         role[i] = r;
         found[r] = true;
@@ -374,9 +376,14 @@ std::vector<int> vertex_roles(const std::string& path, const Element& e, Triangl
   if (!normals)
     for (int& r : role)
       if (r >= 3 && r <= 5) r = -1;
+  const bool colours = found[7] && found[8] && found[9];
+  if (!colours)
+    for (int& r : role)
+      if (r >= 7) r = -1;
   mesh.vertices.resize(e.count);
   if (normals) mesh.normals.resize(e.count);
   if (found[6]) mesh.quality.resize(e.count);
+  if (colours) mesh.colours.resize(e.count);
   return role;
 }
 
@@ -388,14 +395,19 @@ void read_element(const std::string& path, const Element& e, const std::vector<i
                   TriangleMesh& mesh) {
   const bool is_vertex = e.name == "vertex";
   const char* what = e.name.c_str();
-  // Vertex `index`'s value `f` of the column with role `r` (0-2 position, 3-5 normal, 6 quality).
+  // Vertex `index`'s value `f` of the column with role `r` (0-2 position, 3-5 normal, 6 quality,
+  // 7-9 colour: rounded and clamped to 0-255).
   const auto store = [&mesh](std::uint64_t index, int r, float f) {
     if (r < 3) {
       mesh.vertices[index][r] = f;
     } else if (r < 6) {
       mesh.normals[index][r - 3] = f;
-    } else {
+    } else if (r == 6) {
       mesh.quality[index] = f;
+    } else {
+      const auto c = static_cast<std::uint8_t>(f >= 255.0f ? 255.0f : f > 0.0f ? f + 0.5f : 0.0f);
+      Rgb8& colour = mesh.colours[index];
+      (r == 7 ? colour.r : r == 8 ? colour.g : colour.b) = c;
     }
   };
   const bool fixed = std::none_of(e.properties.begin(), e.properties.end(),

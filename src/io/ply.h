@@ -68,8 +68,8 @@ class PlyWriter {
   bool ok_ = true;
 };
 
-/// Reads a binary little-endian or ASCII PLY: vertices (x y z; nx ny nz and quality when all
-/// present), faces from the `vertex_indices` (or `vertex_index`) list, polygons fan-triangulated;
+/// Reads a binary little-endian or ASCII PLY: vertices (x y z; nx ny nz, quality and red green
+/// blue (rounded, clamped to 0-255) when present), faces from the `vertex_indices` (or `vertex_index`) list, polygons fan-triangulated;
 /// other elements and properties are skipped. Throws input_error naming the file on a missing file,
 /// a bad header, an unsupported format (big-endian), truncated data or an out-of-range face index.
 TriangleMesh read_ply(const std::string& path);

@@ -25,6 +25,7 @@
 #include "core/host_cpu.h"
 #include "core/log.h"
 #include "io/atomic_write.h"
+#include "io/gltf.h"
 #include "io/ply.h"
 #include "pipeline/output_folder.h"
 #include "pipeline/processing.h"
@@ -38,12 +39,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 /// Every file a replay or scan may leave in --out: those of an earlier run are moved aside first.
-const std::vector<std::string> kRunOutputs = {"trajectory.txt", "mesh.ply",   "stats.json",
-                                              "volume.vdb",     "points.ply", "session/"};
+const std::vector<std::string> kRunOutputs = {"trajectory.txt", "mesh.ply",   "mesh.glb",
+                                              "stats.json",     "volume.vdb", "points.ply",
+                                              "session/"};
 
 /// The files this run writes, in the order it writes them (stats.json last).
 std::vector<std::string> outputs_of(const RunOptions& options) {
-  std::vector<std::string> files = {"trajectory.txt", "mesh.ply"};
+  std::vector<std::string> files = {"trajectory.txt", "mesh.ply", "mesh.glb"};
   if (options.save_volume) files.push_back("volume.vdb");
   if (options.save_session)
     for (const std::string& f : session_outputs()) files.push_back(f);
@@ -385,7 +387,11 @@ void export_outputs(const RunOptions& options, const Processing& processing, Vie
   progress.step("extracting the mesh");
   const Processing::ExportResult exported = processing.final_mesh();
   result.mesh = exported.stats;
-  outputs.write("mesh.ply", [&](const std::string& path) { write_ply(path, *exported.mesh); });
+  const MeshWriteOptions mesh_options{options.bake_ao};
+  outputs.write("mesh.ply",
+                [&](const std::string& path) { write_ply(path, *exported.mesh, mesh_options); });
+  outputs.write("mesh.glb",
+                [&](const std::string& path) { write_glb(path, *exported.mesh, mesh_options); });
   if (options.save_volume) {
     const auto volume_start = Clock::now();
     result.volume = VolumeStats{};

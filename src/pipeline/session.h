@@ -33,6 +33,8 @@ struct RunOptions {
   bool save_volume = false;
   /// Also write what is needed to continue later into out_dir/session/ (pipeline/saved_session.h).
   bool save_session = false;
+  /// The colour of mesh.ply and mesh.glb multiplied by the AO (for viewers that ignore the AO).
+  bool bake_ao = false;
   /// Non-empty: continue the session saved in resume_dir/session/ (read and checked before the
   /// output folder is touched: a session that cannot be continued is an error, exit 2 or 3).
   std::string resume_dir;

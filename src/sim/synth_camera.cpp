@@ -40,7 +40,7 @@ std::string printable(const std::string& text) {
   return out;
 }
 
-const char* const kParameterList = "frames, width, height, noise, seed, trajectory, fps";
+const char* const kParameterList = "frames, width, height, noise, seed, trajectory, fps, colour";
 
 [[noreturn]] void bad_value(const std::string& spec, const std::string& key,
                             const std::string& value, const std::string& expected) {
@@ -400,6 +400,14 @@ SynthParams parse_synth_spec(const std::string& spec) {
       } else {
         bad_value(spec, key, value, "none or kinect");
       }
+    } else if (key == "colour") {
+      if (value == "on") {
+        params.colour = true;
+      } else if (value == "off") {
+        params.colour = false;
+      } else {
+        bad_value(spec, key, value, "on or off");
+      }
     } else if (key == "trajectory") {
       if (value == "orbit") {
         params.trajectory = SynthTrajectory::kOrbit;
@@ -467,6 +475,25 @@ std::uint16_t render_synth_depth_pixel(const AnalyticScene& scene, const Intrins
   return render_pixel(make_setup(scene, intrinsics, T_world_camera, options), nullptr, u, v);
 }
 
+void render_synth_colour(const AnalyticScene& scene, const Intrinsics& intrinsics,
+                         const Pose& T_world_camera, Image<Rgb8>& colour) {
+  colour.resize(intrinsics.width, intrinsics.height);
+  const RenderSetup setup = make_setup(scene, intrinsics, T_world_camera, SynthRenderOptions{});
+  tbb::parallel_for(tbb::blocked_range<int>(0, intrinsics.height),
+                    [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v < rows.end(); ++v)
+      for (int u = 0; u < intrinsics.width; ++u) {
+        const Eigen::Vector3d dir((u - setup.cx) * setup.inv_fx, (v - setup.cy) * setup.inv_fy, 1.0);
+        const double length = dir.norm();
+        const Ray ray{setup.t_world_camera, setup.R_world_camera * (dir / length)};
+        Hit hit;
+        colour(u, v) = scene.intersect(ray, 0.0, kMaxSynthDepthM * length, &hit)
+                           ? scene.colour(hit.primitive)
+                           : Rgb8{};
+      }
+  });
+}
+
 void render_synth_frame(const AnalyticScene& scene, const SynthParams& params, std::uint64_t index,
                         DepthFrame& frame) {
   const double time_s = static_cast<double>(index) / params.fps;
@@ -482,6 +509,15 @@ void render_synth_frame(const AnalyticScene& scene, const SynthParams& params, s
   frame.timestamp_s = time_s;
   frame.sequence = index;
   frame.T_world_camera_gt = T_world_camera;
+  frame.colour_error.clear();
+  if (params.colour) {
+    render_synth_colour(scene, frame.intrinsics, T_world_camera, frame.colour);
+    frame.colour_camera = ColourCamera::registered_to(frame.intrinsics);
+    frame.colour_timestamp_s = time_s;
+  } else {
+    frame.colour.resize(0, 0);
+    frame.colour_camera.reset();
+  }
 }
 
 }  // namespace aoscan

@@ -51,6 +51,9 @@ struct SynthParams {
   std::uint64_t seed = 1;  ///< keys the noise and the trajectory's wobble
   SynthTrajectory trajectory = SynthTrajectory::kOrbit;
   double fps = 30.0;  ///< frame rate in (0, 1000]; frame i is at time i / fps (s)
+  /// `colour=on`: frames come with a colour image from a colour camera registered to the depth
+  /// camera, each surface the flat colour of its primitive (AnalyticScene::colour()), exact.
+  bool colour = false;
 
   /// synth_intrinsics(width, height).
   Intrinsics intrinsics() const;
@@ -63,7 +66,8 @@ Intrinsics synth_intrinsics(int width, int height);
 /// Raw units per metre of synthetic frames.
 inline constexpr double kSynthDepthScale = 5000.0;
 
-/// Parses `synth:NAME[?key=value&...]` (keys: frames, width, height, noise, seed, trajectory, fps).
+/// Parses `synth:NAME[?key=value&...]` (keys: frames, width, height, noise, seed, trajectory, fps,
+/// colour).
 /// Throws usage_error, one line naming the spec and the offending scene or parameter and listing
 /// the valid ones, on an unknown scene or key, a repeated key, or a bad value.
 SynthParams parse_synth_spec(const std::string& spec);
@@ -107,6 +111,11 @@ void render_synth_depth(const AnalyticScene& scene, const Intrinsics& intrinsics
 std::uint16_t render_synth_depth_pixel(const AnalyticScene& scene, const Intrinsics& intrinsics,
                                        const Pose& T_world_camera,
                                        const SynthRenderOptions& options, int u, int v);
+
+/// The colour image of `scene` from T_world_camera: one exact ray per pixel centre (no noise),
+/// the colour of the primitive hit (AnalyticScene::colour()), black where nothing is hit.
+void render_synth_colour(const AnalyticScene& scene, const Intrinsics& intrinsics,
+                         const Pose& T_world_camera, Image<Rgb8>& colour);
 
 /// Frame `index` of the stream that `params` describes: its depth rendered from the trajectory's
 /// pose at time index / fps with the params' noise and seed, `depth_scale` kSynthDepthScale,

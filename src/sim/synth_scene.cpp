@@ -199,7 +199,8 @@ void append_sphere(const SceneSphere& s, TriangleMesh* mesh) {
 
 template <class BoxAt, class SphereAt>
 bool nearest_hit(const Ray& ray, double t_min, double t_max, int box_count, BoxAt box_at,
-                 int sphere_count, SphereAt sphere_at, Hit* hit) {
+                 int sphere_count, SphereAt sphere_at, Hit* hit, const SceneBox** hit_box,
+                 const SceneSphere** hit_sphere) {
   const Eigen::Vector3d& o = ray.origin;
   const Eigen::Vector3d& d = ray.direction;
   const Eigen::Vector3d inv_d = safe_inverse(d);
@@ -208,6 +209,7 @@ bool nearest_hit(const Ray& ray, double t_min, double t_max, int box_count, BoxA
   int best_axis = -1;
   double best_sign = 0.0;
   const SceneSphere* best_sphere = nullptr;
+  const SceneBox* best_box = nullptr;
   for (int i = 0; i < box_count; ++i) {
     double t_near, t_far;
     int near_axis, far_axis;
@@ -218,6 +220,7 @@ bool nearest_hit(const Ray& ray, double t_min, double t_max, int box_count, BoxA
         best_axis = near_axis;
         best_sign = d[near_axis] > 0.0 ? -1.0 : 1.0;  // entering: against the ray
         best_sphere = nullptr;
+        best_box = &box_at(i);
         found = true;
       }
     } else if (t_far >= t_min && t_far <= best) {
@@ -225,6 +228,7 @@ bool nearest_hit(const Ray& ray, double t_min, double t_max, int box_count, BoxA
       best_axis = far_axis;
       best_sign = d[far_axis] > 0.0 ? 1.0 : -1.0;  // leaving: along the ray
       best_sphere = nullptr;
+      best_box = &box_at(i);
       found = true;
     }
   }
@@ -238,6 +242,8 @@ bool nearest_hit(const Ray& ray, double t_min, double t_max, int box_count, BoxA
     }
   }
   if (!found) return false;
+  *hit_box = best_sphere != nullptr ? nullptr : best_box;
+  *hit_sphere = best_sphere;
   if (hit != nullptr) {
     hit->t = best;
     if (best_sphere != nullptr) {
@@ -284,18 +290,43 @@ void AnalyticScene::add_table(const Eigen::Vector2d& centre_xy, const Eigen::Vec
 }
 
 bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max, Hit* hit) const {
-  return nearest_hit(
+  const SceneBox* box = nullptr;
+  const SceneSphere* sphere = nullptr;
+  const bool found = nearest_hit(
       ray, t_min, t_max, static_cast<int>(boxes_.size()),
       [&](int i) -> const SceneBox& { return boxes_[i]; }, static_cast<int>(spheres_.size()),
-      [&](int i) -> const SceneSphere& { return spheres_[i]; }, hit);
+      [&](int i) -> const SceneSphere& { return spheres_[i]; }, hit, &box, &sphere);
+  if (found && hit != nullptr) hit->primitive = primitive_index(box, sphere);
+  return found;
 }
 
 bool AnalyticScene::intersect(const Ray& ray, double t_min, double t_max,
                               const PrimitiveSubset& subset, Hit* hit) const {
-  return nearest_hit(
+  const SceneBox* box = nullptr;
+  const SceneSphere* sphere = nullptr;
+  const bool found = nearest_hit(
       ray, t_min, t_max, subset.box_count,
       [&](int i) -> const SceneBox& { return boxes_[subset.boxes[i]]; }, subset.sphere_count,
-      [&](int i) -> const SceneSphere& { return spheres_[subset.spheres[i]]; }, hit);
+      [&](int i) -> const SceneSphere& { return spheres_[subset.spheres[i]]; }, hit, &box,
+      &sphere);
+  if (found && hit != nullptr) hit->primitive = primitive_index(box, sphere);
+  return found;
+}
+
+int AnalyticScene::primitive_index(const SceneBox* box, const SceneSphere* sphere) const {
+  return box != nullptr ? static_cast<int>(box - boxes_.data())
+                        : static_cast<int>(boxes_.size()) + static_cast<int>(sphere - spheres_.data());
+}
+
+Rgb8 AnalyticScene::colour(int primitive) const {
+  // Saturated and pale colours in turn, far apart in hue: neighbouring primitives differ.
+  static constexpr Rgb8 kPalette[] = {
+      {214, 196, 160}, {70, 110, 200},  {200, 60, 50},   {90, 170, 90},  {230, 200, 60},
+      {150, 80, 170},  {60, 180, 190},  {240, 140, 60},  {120, 120, 120}, {190, 220, 240},
+      {110, 70, 40},   {230, 120, 170}};
+  constexpr int kColours = static_cast<int>(sizeof kPalette / sizeof kPalette[0]);
+  if (primitive < 0) return Rgb8{};
+  return kPalette[primitive % kColours];
 }
 
 bool AnalyticScene::occluded(const Ray& ray, double t_min, double t_max) const {
@@ -339,13 +370,14 @@ std::optional<SurfacePoint> AnalyticScene::nearest_surface_point(const Eigen::Ve
   constexpr double kProbeM = 1e-7;
   std::optional<SurfacePoint> best;
   double best_distance = max_distance_m;
+  int primitive = 0;  // of the candidates considered next
   const auto consider = [&](const Eigen::Vector3d& q, const Eigen::Vector3d& normal) {
     const double d = (q - p).norm();
     if (!(d <= best_distance) || (best && d == best_distance)) return;
     // Hidden against another solid: the probe lies kProbeM deep in it. At the line where two faces
     // meet the probe reads 0 up to rounding.
     if (signed_distance(q + kProbeM * normal) < -0.5 * kProbeM) return;
-    best = SurfacePoint{q, normal};
+    best = SurfacePoint{q, normal, primitive};
     best_distance = d;
   };
   for (const SceneBox& box : boxes_) {
@@ -359,12 +391,14 @@ std::optional<SurfacePoint> AnalyticScene::nearest_surface_point(const Eigen::Ve
         consider(q, normal);
       }
     }
+    ++primitive;
   }
   for (const SceneSphere& s : spheres_) {
     const Eigen::Vector3d v = p - s.centre;
     const double len = v.norm();
     const Eigen::Vector3d normal = len > 0.0 ? Eigen::Vector3d(v / len) : Eigen::Vector3d::UnitZ();
     consider(s.centre + s.radius * normal, normal);
+    ++primitive;
   }
   return best;
 }

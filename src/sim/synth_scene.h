@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "core/colour.h"
 #include "core/mesh.h"
 
 namespace aoscan {
@@ -27,6 +28,7 @@ struct Ray {
 struct Hit {
   double t = 0.0;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  int primitive = -1;  ///< the primitive hit (AnalyticScene::colour())
 };
 
 /// A solid axis-aligned box [min, max] (world frame, metres).
@@ -45,6 +47,7 @@ struct SceneSphere {
 struct SurfacePoint {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  int primitive = -1;  ///< the primitive whose surface it is (AnalyticScene::colour())
 };
 
 /// Indices of some of a scene's primitives (e.g. those a view frustum can reach), ascending.
@@ -106,6 +109,11 @@ class AnalyticScene {
   /// enough for radii up to ~3 m). Touching primitives keep their hidden, coincident faces.
   TriangleMesh to_mesh() const;
 
+  /// The colour of primitive `primitive` (boxes are 0 .. boxes().size() - 1 in the order they
+  /// were added, then the spheres): every primitive is one flat colour of a fixed palette, so
+  /// neighbouring primitives differ. The synthetic colour camera's ground truth.
+  Rgb8 colour(int primitive) const;
+
   /// Bounding box of all primitives (empty box for an empty scene).
   Eigen::AlignedBox3d bounds() const;
 
@@ -127,6 +135,9 @@ class AnalyticScene {
   static std::vector<std::string> names();
 
  private:
+  /// The index colour() knows a primitive by, from what nearest_hit() found.
+  int primitive_index(const SceneBox* box, const SceneSphere* sphere) const;
+
   std::string name_;
   std::vector<SceneBox> boxes_;
   std::vector<SceneSphere> spheres_;

@@ -13,6 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "capture/png_depth.h"
+#include "io/camera_json.h"
+#include "io/colour_image.h"
 #include "io/tum.h"
 #include "support/error_message.h"
 #include "support/scratch_dir.h"
@@ -214,6 +216,109 @@ TEST(TumSource, GroundTruthByNearestTimestampWithin20ms) {
   ASSERT_TRUE(gt[1].has_value());
   EXPECT_EQ(gt[1]->translation(), Eigen::Vector3d(1.5, 0, 0));
   EXPECT_FALSE(gt[5].has_value());
+}
+
+/// Colour frame i of the synthetic recordings: a flat colour per frame.
+Image<Rgb8> colour_image(int i, int width = 16, int height = 12) {
+  return Image<Rgb8>(width, height,
+                     Rgb8{static_cast<std::uint8_t>(10 * i), 50, static_cast<std::uint8_t>(200 - i)});
+}
+
+/// Folder <scratch>/NAME with six good depth frames at t = 1 + i/30 s and rgb.txt: colour of
+/// frame 0 exact, of frame 1 5 ms later, of frame 2 missing, of frame 3 corrupt, of frame 4 of
+/// another size; none within 20 ms of frame 5.
+std::string build_colour_folder(const ScratchDir& scratch, const std::string& name) {
+  const std::string folder = scratch.file(name);
+  std::filesystem::create_directories(folder + "/depth");
+  std::filesystem::create_directories(folder + "/rgb");
+  std::string depth_list, colour_list = "# colour\n";
+  for (int i = 0; i < 6; ++i) {
+    char line[64];
+    const double t = 1.0 + i / 30.0;
+    std::snprintf(line, sizeof line, "%.6f depth/%d.png\n", t, i);
+    depth_list += line;
+    write_depth_png(folder + "/depth/" + std::to_string(i) + ".png", frame_image(i));
+    if (i == 5) continue;
+    std::snprintf(line, sizeof line, "%.6f rgb/%d.png\n", t + (i == 1 ? 0.005 : 0.0), i);
+    colour_list += line;
+    const std::string png = folder + "/rgb/" + std::to_string(i) + ".png";
+    if (i == 2) continue;
+    if (i == 3) {
+      write_text(png, "garbage");
+      continue;
+    }
+    write_colour_png(png, i == 4 ? colour_image(i, 8, 6) : colour_image(i));
+  }
+  write_text(folder + "/depth.txt", depth_list);
+  write_text(folder + "/rgb.txt", colour_list);
+  return folder;
+}
+
+TEST(TumSource, ColourIsAssociatedAndEveryColourFailureKeepsTheDepth) {
+  ScratchDir scratch;
+  const std::string folder = build_colour_folder(scratch, "colour");
+  const auto source = open_tum_folder(folder);
+  EXPECT_NE(source->colour_origin().find("assumed registered"), std::string::npos);
+  DepthFrame frame;
+  const char* errors[] = {"", "", "cannot open colour image", "cannot be decoded",
+                          "size 8x6 differs from 16x12 of the colour camera",
+                          "no colour frame within 20 ms"};
+  for (int i = 0; i < 6; ++i) {
+    ASSERT_TRUE(source->read(frame).is_ok()) << "frame " << i;
+    // The depth is always there.
+    ASSERT_EQ(frame.depth.width(), 16);
+    EXPECT_EQ(frame.depth(3, 2), frame_image(i)(3, 2));
+    ASSERT_TRUE(frame.colour_camera.has_value());
+    EXPECT_TRUE(frame.colour_camera->registered);
+    EXPECT_EQ(frame.colour_camera->intrinsics, frame.intrinsics);
+    if (i < 2) {
+      EXPECT_EQ(frame.colour_error, "") << "frame " << i;
+      ASSERT_EQ(frame.colour.width(), 16);
+      EXPECT_EQ(frame.colour(5, 5), colour_image(i)(5, 5));
+      EXPECT_NEAR(frame.colour_timestamp_s, 1.0 + i / 30.0 + (i == 1 ? 0.005 : 0.0), 1e-9);
+    } else {
+      EXPECT_TRUE(frame.colour.empty()) << "frame " << i;
+      EXPECT_NE(frame.colour_error.find(errors[i]), std::string::npos) << frame.colour_error;
+      EXPECT_EQ(frame.colour_error.find('\n'), std::string::npos);
+    }
+  }
+  // Colour not wanted: nothing decoded.
+  const auto plain = open_tum_folder(folder);
+  plain->want_colour(false);
+  ASSERT_TRUE(plain->read(frame).is_ok());
+  EXPECT_TRUE(frame.colour.empty());
+  EXPECT_EQ(frame.colour_error, "");
+}
+
+TEST(TumSource, ColourCameraFromCameraJsonAndBrokenRgbListsLeaveDepthOnly) {
+  ScratchDir scratch;
+  const std::string folder = build_colour_folder(scratch, "calibrated");
+  ColourCamera camera;
+  camera.intrinsics = Intrinsics{16, 12, 20.0, 20.0, 8.0, 6.0};
+  camera.T_colour_depth = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.025, 0.0, 0.0));
+  write_camera_json(folder + "/camera.json", Intrinsics{16, 12, 18.0, 18.0, 8.0, 6.0}, 1000.0,
+                    &camera);
+  {
+    const auto source = open_tum_folder(folder);
+    EXPECT_EQ(source->colour_origin(), folder + "/camera.json");
+    DepthFrame frame;
+    ASSERT_TRUE(source->read(frame).is_ok());
+    ASSERT_TRUE(frame.colour_camera.has_value());
+    EXPECT_FALSE(frame.colour_camera->registered);
+    EXPECT_EQ(frame.colour_camera->intrinsics, camera.intrinsics);
+    EXPECT_EQ(frame.colour_camera->T_colour_depth.translation(),
+              camera.T_colour_depth.translation());
+    EXPECT_EQ(frame.colour(0, 0), colour_image(0)(0, 0));
+  }
+  // A garbled rgb.txt: the recording is read without colour.
+  write_text(folder + "/rgb.txt", "1.0 rgb/0.png\nnot a line\n");
+  const auto source = open_tum_folder(folder);
+  EXPECT_EQ(source->colour_origin(), "");
+  DepthFrame frame;
+  ASSERT_TRUE(source->read(frame).is_ok());
+  EXPECT_FALSE(frame.colour_camera.has_value());
+  EXPECT_TRUE(frame.colour.empty());
+  EXPECT_EQ(frame.colour_error, "");
 }
 
 TEST(TumSource, RealRedKitchen) {

@@ -192,3 +192,41 @@ TEST(Associate, NearestWithinTolerance) {
 
 }  // namespace
 }  // namespace aoscan
+
+namespace aoscan {
+namespace {
+
+std::vector<TumListEntry> stamps(const std::vector<double>& t) {
+  std::vector<TumListEntry> list;
+  for (double s : t) list.push_back({s, "f" + std::to_string(list.size())});
+  return list;
+}
+
+TEST(AssociateLists, ClosestPairsFirstEachEntryOnce) {
+  // Depth at 0, 0.033, 0.066, 0.2; colour at 0.005, 0.030, 0.031, 0.5, 0.07 (not sorted). Pairs
+  // by |dt|: (depth 1, colour 2) 0.002 first, so depth 1 does not take colour 1 (0.003), which no
+  // other depth frame is near; (2, 4) 0.004; (0, 0) 0.005. Depth 3 has none within 0.02.
+  const auto depth = stamps({0.0, 0.033, 0.066, 0.2});
+  const auto colour = stamps({0.005, 0.030, 0.031, 0.5, 0.07});
+  const auto partner = associate_lists(depth, colour, 0.02);
+  ASSERT_EQ(partner.size(), 4u);
+  EXPECT_EQ(partner[0], std::optional<std::size_t>(0));
+  EXPECT_EQ(partner[1], std::optional<std::size_t>(2));
+  EXPECT_EQ(partner[2], std::optional<std::size_t>(4));
+  EXPECT_FALSE(partner[3].has_value());
+}
+
+TEST(AssociateLists, OneColourFrameServesOneDepthFrame) {
+  // Two depth frames equally near one colour frame: the earlier depth frame takes it.
+  const auto partner = associate_lists(stamps({1.0, 1.02}), stamps({1.01}), 0.02);
+  EXPECT_EQ(partner[0], std::optional<std::size_t>(0));
+  EXPECT_FALSE(partner[1].has_value());
+  // Exactly max_dt apart still pairs; nothing pairs with an empty list.
+  EXPECT_EQ(associate_lists(stamps({2.0}), stamps({2.02}), 0.02)[0],
+            std::optional<std::size_t>(0));
+  EXPECT_FALSE(associate_lists(stamps({2.0}), {}, 0.02)[0].has_value());
+  EXPECT_TRUE(associate_lists({}, stamps({2.0}), 0.02).empty());
+}
+
+}  // namespace
+}  // namespace aoscan

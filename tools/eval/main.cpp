@@ -8,6 +8,7 @@
 
 #include "core/status.h"
 #include "ao_eval.h"
+#include "colour_eval.h"
 #include "io/ply.h"
 #include "io/tum.h"
 #include "mesh_eval.h"
@@ -63,8 +64,16 @@ int run(int argc, char** argv) {
   ao->add_option("--dump", dump_path,
                  "write the compared vertices as CSV: x,y,z (scene frame, m),mesh_ao,reference");
 
+  CLI::App* colour = app.add_subcommand(
+      "colour", "a mesh's vertex colours against the exact colour of a synthetic scene (mean "
+                "absolute difference per channel, 0-255)");
+  colour->add_option("MESH", mesh_path, "mesh.ply with red, green, blue")->required()->check(CLI::ExistingFile);
+  colour->add_option("--scene", scene_name, "synthetic scene name (corner, room, plane)")->required();
+  colour->add_option("--groundtruth", gt_path, "ground-truth trajectory")->required()->check(CLI::ExistingFile);
+  colour->add_option("--estimate", est_path, "estimated trajectory")->required()->check(CLI::ExistingFile);
+
   std::string alignment = "first";
-  for (CLI::App* sub : {mesh, ao})
+  for (CLI::App* sub : {mesh, ao, colour})
     sub->add_option("--alignment", alignment,
                     "how MESH is mapped into the truth's frame: 'first' (the ground-truth pose of "
                     "the estimate's first frame, whose camera frame is aoscan's world frame; "
@@ -102,6 +111,23 @@ int run(int argc, char** argv) {
         std::printf("RPE (%zu frame)      %.2f mm, %.3f deg (rmse)\n", delta, rpe.translation_rmse_m * 1e3,
                     rpe.rotation_rmse_deg);
         std::printf("alignment           rigid (rotation + translation, no scale)\n");
+      }
+    } else if (*colour) {
+      const ColourEvalResult c =
+          evaluate_mesh_colour(read_ply(mesh_path), AnalyticScene::make(scene_name), T_truth_mesh);
+      out["colour_vertices"] = c.vertices;
+      out["colour_off_surface"] = c.off_surface;
+      out["colour_mean_abs"] = c.mean_abs;
+      out["colour_mean_abs_inside"] = c.mean_abs_inside;
+      out["colour_near_edges"] = c.near_edges;
+      out["colour_p95_abs"] = c.p95_abs;
+      if (!json) {
+        std::printf("vertices compared   %zu (%zu farther than 2 cm from the scene skipped; mapped by "
+                    "the %s)\n",
+                    c.vertices, c.off_surface, mesh_alignment);
+        std::printf("colour error        mean %.2f / 255 (p95 %.1f); %.2f / 255 away from the %zu "
+                    "vertices within 2 cm of another colour\n",
+                    c.mean_abs, c.p95_abs, c.mean_abs_inside, c.near_edges);
       }
     } else if (*ao) {
       const AoEvalResult a = evaluate_mesh_ao(read_ply(mesh_path), AnalyticScene::make(scene_name),

@@ -1,0 +1,124 @@
+/// @file colour_image_test.cpp
+/// @brief Tests for src/io/colour_image.h: every pixel layout read as exact 8-bit RGB, JPEG within
+/// its loss, the PNG round trip, and every unreadable file as a one-line corrupt_frame.
+#include "io/colour_image.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "support/scratch_dir.h"
+
+namespace aoscan {
+namespace {
+
+using testing::ScratchDir;
+using testing::write_text;
+
+/// Pixel (x, y) of the test images: every channel differs and varies across the image.
+Rgb8 pattern(int x, int y) {
+  return {static_cast<std::uint8_t>(10 * x + y), static_cast<std::uint8_t>(200 - 7 * y),
+          static_cast<std::uint8_t>(3 * x * y)};
+}
+
+constexpr int kWidth = 11, kHeight = 7;
+
+/// The pattern as an OpenCV image of `type` (BGR order; grey = the red channel).
+cv::Mat pattern_mat(int type) {
+  cv::Mat m(kHeight, kWidth, type);
+  for (int y = 0; y < kHeight; ++y)
+    for (int x = 0; x < kWidth; ++x) {
+      const Rgb8 p = pattern(x, y);
+      switch (type) {
+        case CV_8UC1: m.at<std::uint8_t>(y, x) = p.r; break;
+        case CV_8UC3: m.at<cv::Vec3b>(y, x) = {p.b, p.g, p.r}; break;
+        case CV_8UC4: m.at<cv::Vec4b>(y, x) = {p.b, p.g, p.r, 77}; break;
+        case CV_16UC3:
+          m.at<cv::Vec3w>(y, x) = {static_cast<std::uint16_t>(257 * p.b),
+                                   static_cast<std::uint16_t>(257 * p.g + 100),
+                                   static_cast<std::uint16_t>(257 * p.r - (p.r > 0 ? 100 : 0))};
+          break;
+        case CV_16UC1: m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(257 * p.r); break;
+        default: ADD_FAILURE() << "type " << type;
+      }
+    }
+  return m;
+}
+
+TEST(ColourImage, EveryLayoutReadsAsExactRgb) {
+  ScratchDir dir;
+  struct Case {
+    int type;
+    bool grey;
+  };
+  for (const Case c : {Case{CV_8UC3, false}, Case{CV_8UC4, false}, Case{CV_8UC1, true},
+                       Case{CV_16UC3, false}, Case{CV_16UC1, true}}) {
+    const std::string path = dir.file("image_" + std::to_string(c.type) + ".png");
+    ASSERT_TRUE(cv::imwrite(path, pattern_mat(c.type)));
+    Image<Rgb8> out;
+    const Status s = read_colour_image(path, out);
+    ASSERT_TRUE(s.is_ok()) << s.message();
+    ASSERT_EQ(out.width(), kWidth);
+    ASSERT_EQ(out.height(), kHeight);
+    for (int y = 0; y < kHeight; ++y)
+      for (int x = 0; x < kWidth; ++x) {
+        const Rgb8 p = pattern(x, y);
+        // 16-bit values within 100 of 257 * v round to v.
+        ASSERT_EQ(out(x, y), (c.grey ? Rgb8{p.r, p.r, p.r} : p)) << "type " << c.type;
+      }
+  }
+}
+
+TEST(ColourImage, JpegWithinItsLoss) {
+  ScratchDir dir;
+  const std::string path = dir.file("flat.jpg");
+  // A flat colour: JPEG keeps it within a level or two.
+  ASSERT_TRUE(cv::imwrite(path, cv::Mat(16, 24, CV_8UC3, cv::Scalar(40, 120, 200)),
+                          {cv::IMWRITE_JPEG_QUALITY, 95}));
+  Image<Rgb8> out;
+  ASSERT_TRUE(read_colour_image(path, out).is_ok());
+  ASSERT_EQ(out.width(), 24);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    EXPECT_NEAR(out.data()[i].r, 200, 2);
+    EXPECT_NEAR(out.data()[i].g, 120, 2);
+    EXPECT_NEAR(out.data()[i].b, 40, 2);
+  }
+}
+
+TEST(ColourImage, WrittenPngReadsBackExactly) {
+  ScratchDir dir;
+  Image<Rgb8> image(kWidth, kHeight);
+  for (int y = 0; y < kHeight; ++y)
+    for (int x = 0; x < kWidth; ++x) image(x, y) = pattern(x, y);
+  write_colour_png(dir.file("rgb.png"), image);
+  Image<Rgb8> out;
+  ASSERT_TRUE(read_colour_image(dir.file("rgb.png"), out).is_ok());
+  ASSERT_EQ(out.width(), kWidth);
+  for (std::size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out.data()[i], image.data()[i]);
+}
+
+TEST(ColourImage, UnreadableFilesAreOneLineCorruptFrames) {
+  ScratchDir dir;
+  write_text(dir.file("empty.png"), "");
+  write_text(dir.file("text.jpg"), "not an image at all");
+  ASSERT_TRUE(cv::imwrite(dir.file("whole.png"), pattern_mat(CV_8UC3)));
+  const std::string bytes = testing::read_bytes(dir.file("whole.png"));
+  write_text(dir.file("truncated.png"), bytes.substr(0, bytes.size() / 2));
+  struct Case {
+    std::string file, says;
+  };
+  for (const Case& c : {Case{"missing.png", "cannot open"}, Case{"empty.png", "empty"},
+                        Case{"text.jpg", "cannot be decoded"},
+                        Case{"truncated.png", "cannot be decoded"}}) {
+    Image<Rgb8> out;
+    const Status s = read_colour_image(dir.file(c.file), out, 12);
+    EXPECT_EQ(s.code(), Status::Code::kCorruptFrame) << c.file;
+    EXPECT_NE(s.message().find(dir.file(c.file) + " (frame 12): "), std::string::npos)
+        << s.message();
+    EXPECT_NE(s.message().find(c.says), std::string::npos) << s.message();
+    EXPECT_EQ(s.message().find('\n'), std::string::npos) << s.message();
+  }
+}
+
+}  // namespace
+}  // namespace aoscan
