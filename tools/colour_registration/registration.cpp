@@ -127,7 +127,10 @@ Normal normal_equations(const std::vector<EdgeFrame>& frames, const State& s, do
         continue;
       const double d = bilinear(fr.distance, u, v);
       if (!(d < tau)) continue;
-      const double gx = bilinear(fr.grad_x, u, v), gy = bilinear(fr.grad_y, u, v);
+      // The distance's gradient: central differences (the bilinear sample of the central-difference
+      // image, without storing it).
+      const double gx = 0.5 * (bilinear(fr.distance, u + 1.0, v) - bilinear(fr.distance, u - 1.0, v));
+      const double gy = 0.5 * (bilinear(fr.distance, u, v + 1.0) - bilinear(fr.distance, u, v - 1.0));
       // d(u, v) / dq
       Eigen::Matrix<double, 2, 3> dq;
       dq << s.f * iz, 0.0, -s.f * xn * iz, 0.0, s.f * iz, -s.f * yn * iz;
@@ -330,17 +333,7 @@ void colour_edges_from_grey(const Image<std::uint8_t>& grey, const EdgeOptions& 
   cv::distanceTransform(not_edges, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
   const int w = grey.width(), h = grey.height();
   frame.distance.resize(w, h);
-  frame.grad_x.resize(w, h);
-  frame.grad_y.resize(w, h);
   for (int y = 0; y < h; ++y) std::copy(dist.ptr<float>(y), dist.ptr<float>(y) + w, frame.distance.row(y));
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const int xl = std::max(x - 1, 0), xr = std::min(x + 1, w - 1);
-      const int yu = std::max(y - 1, 0), yd = std::min(y + 1, h - 1);
-      frame.grad_x(x, y) = (frame.distance(xr, y) - frame.distance(xl, y)) / static_cast<float>(xr - xl);
-      frame.grad_y(x, y) = (frame.distance(x, yd) - frame.distance(x, yu)) / static_cast<float>(yd - yu);
-    }
-  }
 }
 
 EdgeFrame make_edge_frame(const Image<std::uint16_t>& depth, double depth_scale,

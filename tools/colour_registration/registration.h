@@ -47,7 +47,6 @@ struct EdgeFrame {
   std::vector<Eigen::Vector3d> points;         ///< depth-edge points, depth camera frame (m)
   std::vector<Eigen::Vector2d> depth_pixels;   ///< the same points in depth-image pixels
   Image<float> distance;                       ///< px to the nearest colour edge (colour image)
-  Image<float> grad_x, grad_y;                 ///< the distance's central differences
   int colour_edge_pixels = 0;
 };
 
@@ -59,7 +58,7 @@ void find_depth_edges(const Image<std::uint16_t>& depth, double depth_scale,
                       std::vector<Eigen::Vector3d>& points,
                       std::vector<Eigen::Vector2d>& depth_pixels);
 
-/// The distance transform of the Canny edges of a grey image (and its gradient) into `frame`.
+/// The distance transform of the Canny edges of a grey image into `frame`.
 void colour_edges_from_grey(const Image<std::uint8_t>& grey, const EdgeOptions& options,
                             EdgeFrame& frame);
 
