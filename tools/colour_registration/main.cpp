@@ -35,7 +35,11 @@ int run(int argc, char** argv) {
   app.add_option("--frames", options.max_frames, "pairs read at most (half fit, half measure)")
       ->capture_default_str();
   app.add_option("--step", options.step, "read every K-th pair")->capture_default_str();
-  app.add_flag("--verbose", options.verbose, "per-frame edge counts, skips, refinement stages");
+  app.add_flag("--fit-principal-point", options.fit.fit_principal_point,
+               "fit cx, cy too (to first order the same as a small rotation: kept at the image "
+               "centre by default)");
+  app.add_flag("--verbose", options.verbose,
+               "per-frame edge counts and distances, skips, formal uncertainties");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -60,10 +64,10 @@ int run(int argc, char** argv) {
                 r.fit_frames.size(), r.eval_frames.size(),
                 r.held_out ? " (held out: every other pair)" : " (the fitted pair itself)",
                 r.skipped, r.skipped ? "; first: " : "", r.first_skip.c_str());
-    std::printf("colour intrinsics   %dx%d fx = fy = %.2f px (fitted), cx %.2f cy %.2f (kept at "
-                "the image centre)\n",
+    std::printf("colour intrinsics   %dx%d fx = fy = %.2f px (fitted), cx %.2f cy %.2f (%s)\n",
                 c.intrinsics.width, c.intrinsics.height, c.intrinsics.fx, c.intrinsics.cx,
-                c.intrinsics.cy);
+                c.intrinsics.cy,
+                options.fit.fit_principal_point ? "fitted" : "kept at the image centre");
     std::printf("depth to colour     t = (%+.4f, %+.4f, %+.4f) m, rotation %.3f deg about "
                 "(%+.3f, %+.3f, %+.3f)\n",
                 t.x(), t.y(), t.z(), aa.angle() * 180.0 / M_PI, aa.axis().x(), aa.axis().y(),
@@ -71,15 +75,23 @@ int run(int argc, char** argv) {
     if (options.verbose) {
       const auto& s = r.fit.sigma;
       std::printf("formal sigma        rotation (%.4f, %.4f, %.4f) deg, t (%.2f, %.2f, %.2f) mm, "
-                  "f %.2f px; condition %.3g\n",
+                  "f %.2f px, cx %.2f cy %.2f px; condition %.3g\n",
                   s[0] * 180 / M_PI, s[1] * 180 / M_PI, s[2] * 180 / M_PI, s[3] * 1e3, s[4] * 1e3,
-                  s[5] * 1e3, s[6], r.fit.condition);
+                  s[5] * 1e3, s[6], s[7], s[8], r.fit.condition);
+      for (std::size_t k = 0; k < r.eval_frames.size(); ++k)
+        std::printf("measured frame %4d  before median %5.2f px, after median %5.2f px (%zu points)\n",
+                    r.eval_frames[k], r.before_per_frame[k].median_px,
+                    r.after_per_frame[k].median_px, r.after_per_frame[k].points);
     }
     print_distances("before (registered)", r.before);
     print_distances("after              ", r.after);
+    std::printf("chance              median %.2f px from any pixel to the nearest colour edge (what "
+                "a misplaced point scores)\n",
+                r.chance_median_px);
     std::printf("measured            distance from each projected depth-edge point to the nearest "
                 "colour Canny edge (distance transform, bilinear, untruncated)\n");
-    std::printf("time                %.1f s\n", seconds);
+    std::printf("time                %.1f s (reading and edges %.1f s, fit %.1f s)\n", seconds,
+                r.read_s, r.fit_s);
     write_camera_json(out, r.depth_intrinsics, r.depth_scale, &c);
     std::printf("wrote               %s\n", out.c_str());
     return 0;

@@ -3,6 +3,7 @@
 #include "registration.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -362,31 +363,58 @@ ColourCamera nominal_colour_camera(int width, int height) {
   return c;
 }
 
-EdgeDistances measure_edge_distances(const std::vector<EdgeFrame>& frames,
-                                     const ColourCamera* camera) {
-  EdgeDistances out;
-  std::vector<float> d;
-  for (const EdgeFrame& fr : frames) {
-    for (std::size_t i = 0; i < fr.points.size(); ++i) {
-      double u = fr.depth_pixels[i].x(), v = fr.depth_pixels[i].y();
-      if (camera && !camera->project(fr.points[i], u, v)) {
-        ++out.outside;
-        continue;
-      }
-      if (!inside(fr.distance, u, v)) {
-        ++out.outside;
-        continue;
-      }
-      d.push_back(bilinear(fr.distance, u, v));
+namespace {
+
+void collect_distances(const EdgeFrame& fr, const ColourCamera* camera, EdgeDistances& out,
+                       std::vector<float>& d) {
+  for (std::size_t i = 0; i < fr.points.size(); ++i) {
+    double u = fr.depth_pixels[i].x(), v = fr.depth_pixels[i].y();
+    if (camera && !camera->project(fr.points[i], u, v)) {
+      ++out.outside;
+      continue;
     }
+    if (!inside(fr.distance, u, v)) {
+      ++out.outside;
+      continue;
+    }
+    d.push_back(bilinear(fr.distance, u, v));
   }
+}
+
+void summarise(std::vector<float>& d, EdgeDistances& out) {
   out.points = d.size();
-  if (d.empty()) return out;
+  if (d.empty()) return;
   out.within_2px = static_cast<double>(std::count_if(d.begin(), d.end(), [](float x) { return x <= 2.0f; })) /
                    static_cast<double>(d.size());
   out.median_px = percentile(d, 0.5);
   out.p90_px = percentile(d, 0.9);
+}
+
+}  // namespace
+
+EdgeDistances measure_edge_distances(const std::vector<EdgeFrame>& frames,
+                                     const ColourCamera* camera) {
+  EdgeDistances out;
+  std::vector<float> d;
+  for (const EdgeFrame& fr : frames) collect_distances(fr, camera, out, d);
+  summarise(d, out);
   return out;
+}
+
+EdgeDistances measure_edge_distances(const EdgeFrame& frame, const ColourCamera* camera) {
+  EdgeDistances out;
+  std::vector<float> d;
+  collect_distances(frame, camera, out, d);
+  summarise(d, out);
+  return out;
+}
+
+double chance_median_px(const std::vector<EdgeFrame>& frames) {
+  std::vector<float> d;
+  for (const EdgeFrame& fr : frames)
+    for (int y = 0; y < fr.distance.height(); y += 4)
+      for (int x = 0; x < fr.distance.width(); x += 4) d.push_back(fr.distance(x, y));
+  return percentile(d, 0.5);
 }
 
 FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCamera& nominal,
@@ -400,6 +428,10 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
     if (progress) progress(m);
   };
 
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&start] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
   State nominal_state;
   nominal_state.f = nominal.intrinsics.fx;
   nominal_state.cx = nominal.intrinsics.cx;
@@ -409,7 +441,10 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
   std::vector<std::vector<int>> pick(frames.size());
   for (std::size_t k = 0; k < frames.size(); ++k) {
     const int n = static_cast<int>(frames[k].points.size());
-    const int m = std::min(n, options.coarse_points_per_frame);
+    const int per_frame =
+        std::max(20, std::min(options.coarse_points_per_frame,
+                              options.coarse_points_total / static_cast<int>(frames.size())));
+    const int m = std::min(n, per_frame);
     for (int i = 0; i < m; ++i) pick[k].push_back(static_cast<int>((static_cast<long long>(i) * n) / m));
   }
   struct Cell {
@@ -443,9 +478,9 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
   char line[256];
   std::snprintf(line, sizeof line,
                 "coarse search: %zu cells, best mean distance %.2f px (shift %+.0f, %+.0f px, "
-                "baseline %+.3f m, focal x%.2f)",
+                "baseline %+.3f m, focal x%.2f), %.1f s",
                 cells.size(), starts.front().cost, starts.front().du, starts.front().dv,
-                starts.front().tx, starts.front().fs);
+                starts.front().tx, starts.front().fs, elapsed());
   say(line);
 
   std::array<bool, kParams> free{};
@@ -461,8 +496,8 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
     const Cost c = truncated_cost(frames, s, last_tau);
     std::snprintf(line, sizeof line,
                   "refined start %zu/%zu: mean truncated squared distance %.3f px^2, %zu/%zu "
-                  "points within %.1f px",
-                  k + 1, starts.size(), c.mean(), c.inliers, c.points, last_tau);
+                  "points within %.1f px, %.1f s",
+                  k + 1, starts.size(), c.mean(), c.inliers, c.points, last_tau, elapsed());
     say(line);
     if (c.mean() < best_cost) {
       best_cost = c.mean();
@@ -557,6 +592,10 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
     if (options.verbose) say("skipped: " + message);
   };
 
+  const auto start = std::chrono::steady_clock::now();
+  auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
   std::vector<EdgeFrame> frames;
   int colour_w = 0, colour_h = 0;
   Image<std::uint16_t> depth;
@@ -640,6 +679,7 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
     throw input_error(folder + ": no usable depth/colour pair among " + std::to_string(attempted) +
                       " read" + (result.first_skip.empty() ? "" : " (first: " + result.first_skip + ")"));
 
+  result.read_s = seconds_since(start);
   // Every other usable pair fits; the rest measure (a single pair does both).
   std::vector<EdgeFrame> fit_set, eval_set;
   for (std::size_t k = 0; k < frames.size(); ++k) {
@@ -653,16 +693,23 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
   }
   result.held_out = !eval_set.empty();
   const ColourCamera nominal = nominal_colour_camera(colour_w, colour_h);
+  const auto fit_start = std::chrono::steady_clock::now();
   try {
     result.fit = fit_colour_camera(fit_set, nominal, options.fit, progress);
   } catch (const Error& e) {
     if (e.code() == ExitCode::kBadInput) throw input_error(folder + ": " + e.what());
     throw;
   }
+  result.fit_s = seconds_since(fit_start);
   const std::vector<EdgeFrame>& measured = result.held_out ? eval_set : fit_set;
   if (!result.held_out) result.eval_frames = result.fit_frames;
   result.before = measure_edge_distances(measured, nullptr);
   result.after = measure_edge_distances(measured, &result.fit.camera);
+  for (const EdgeFrame& fr : measured) {
+    result.before_per_frame.push_back(measure_edge_distances(fr, nullptr));
+    result.after_per_frame.push_back(measure_edge_distances(fr, &result.fit.camera));
+  }
+  result.chance_median_px = chance_median_px(measured);
   return result;
 }
 

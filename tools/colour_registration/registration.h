@@ -84,6 +84,12 @@ struct EdgeDistances {
 /// pixel (x, y)), bilinear in the distance transform, untruncated.
 EdgeDistances measure_edge_distances(const std::vector<EdgeFrame>& frames,
                                      const ColourCamera* camera);
+/// The same for one frame.
+EdgeDistances measure_edge_distances(const EdgeFrame& frame, const ColourCamera* camera);
+
+/// What a point placed at random would score: the median distance from every 4th pixel of every
+/// 4th row to the nearest colour edge (how dense the colour edges are).
+double chance_median_px(const std::vector<EdgeFrame>& frames);
 
 /// How the fit runs.
 struct FitOptions {
@@ -93,6 +99,7 @@ struct FitOptions {
   std::vector<double> coarse_baseline_m = {-0.05, -0.025, 0.0, 0.025, 0.05};
   std::vector<double> coarse_focal_scale = {0.9, 0.95, 1.0, 1.05, 1.1};
   int coarse_points_per_frame = 300;
+  int coarse_points_total = 6000;    ///< fewer per frame when many frames
   std::vector<double> truncation_px = {10.0, 5.0, 3.0};  ///< LM stages
   int iterations_per_stage = 20;
   int refine_candidates = 3;         ///< best distinct coarse cells refined
@@ -138,6 +145,9 @@ struct RecordingResult {
   std::vector<int> fit_frames, eval_frames;  ///< recording indices
   bool held_out = false;      ///< eval_frames are not fit_frames
   EdgeDistances before, after;
+  std::vector<EdgeDistances> before_per_frame, after_per_frame;  ///< of eval_frames
+  double chance_median_px = 0.0;  ///< chance_median_px() of the measured frames
+  double read_s = 0.0, fit_s = 0.0;  ///< wall-clock seconds reading and fitting
   std::size_t skipped = 0;    ///< unreadable or unusable pairs
   std::string first_skip;     ///< the first skip's message
 };
