@@ -85,6 +85,9 @@ int run(int argc, char** argv) {
     }
     print_distances("before (registered)", r.before);
     print_distances("after              ", r.after);
+    std::printf("offset              the fit moves depth-edge points by median %.1f px, p90 %.1f px "
+                "from the registered assumption\n",
+                r.offset_median_px, r.offset_p90_px);
     std::printf("chance              median %.2f px from any pixel to the nearest colour edge (what "
                 "a misplaced point scores)\n",
                 r.chance_median_px);

@@ -710,6 +710,15 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
     result.after_per_frame.push_back(measure_edge_distances(fr, &result.fit.camera));
   }
   result.chance_median_px = chance_median_px(measured);
+  std::vector<float> offsets;
+  for (const EdgeFrame& fr : measured)
+    for (std::size_t i = 0; i < fr.points.size(); ++i) {
+      double u, v;
+      if (result.fit.camera.project(fr.points[i], u, v))
+        offsets.push_back(static_cast<float>((Eigen::Vector2d(u, v) - fr.depth_pixels[i]).norm()));
+    }
+  result.offset_median_px = percentile(offsets, 0.5);
+  result.offset_p90_px = percentile(offsets, 0.9);
   return result;
 }
 

@@ -147,6 +147,9 @@ struct RecordingResult {
   EdgeDistances before, after;
   std::vector<EdgeDistances> before_per_frame, after_per_frame;  ///< of eval_frames
   double chance_median_px = 0.0;  ///< chance_median_px() of the measured frames
+  /// How far the fitted camera moves the measured depth-edge points from where the registered
+  /// assumption puts them (same pixel coordinates): median and 90th percentile, pixels.
+  double offset_median_px = 0.0, offset_p90_px = 0.0;
   double read_s = 0.0, fit_s = 0.0;  ///< wall-clock seconds reading and fitting
   std::size_t skipped = 0;    ///< unreadable or unusable pairs
   std::string first_skip;     ///< the first skip's message
