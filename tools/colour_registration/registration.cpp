@@ -130,8 +130,10 @@ Normal normal_equations(const std::vector<EdgeFrame>& frames, const State& s, do
       if (!(d < tau)) continue;
       // The distance's gradient: central differences (the bilinear sample of the central-difference
       // image, without storing it).
-      const double gx = 0.5 * (bilinear(fr.distance, u + 1.0, v) - bilinear(fr.distance, u - 1.0, v));
-      const double gy = 0.5 * (bilinear(fr.distance, u, v + 1.0) - bilinear(fr.distance, u, v - 1.0));
+      const double gx =
+          0.5 * (bilinear(fr.distance, u + 1.0, v) - bilinear(fr.distance, u - 1.0, v));
+      const double gy =
+          0.5 * (bilinear(fr.distance, u, v + 1.0) - bilinear(fr.distance, u, v - 1.0));
       // d(u, v) / dq
       Eigen::Matrix<double, 2, 3> dq;
       dq << s.f * iz, 0.0, -s.f * xn * iz, 0.0, s.f * iz, -s.f * yn * iz;
@@ -246,8 +248,8 @@ double coarse_cost(const std::vector<EdgeFrame>& frames, const std::vector<std::
 
 double percentile(std::vector<float>& values, double q) {
   if (values.empty()) return 0.0;
-  const std::size_t k = std::min(values.size() - 1,
-                                 static_cast<std::size_t>(q * static_cast<double>(values.size())));
+  const std::size_t k =
+      std::min(values.size() - 1, static_cast<std::size_t>(q * static_cast<double>(values.size())));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
   return values[k];
 }
@@ -306,9 +308,10 @@ void find_depth_edges(const Image<std::uint16_t>& depth, double depth_scale,
     }
   }
   const std::size_t n = all_points.size();
-  const std::size_t keep = options.max_points > 0
-                               ? std::min<std::size_t>(n, static_cast<std::size_t>(options.max_points))
-                               : n;
+  const std::size_t keep =
+      options.max_points > 0
+          ? std::min<std::size_t>(n, static_cast<std::size_t>(options.max_points))
+          : n;
   points.reserve(keep);
   depth_pixels.reserve(keep);
   for (std::size_t k = 0; k < keep; ++k) {
@@ -320,8 +323,7 @@ void find_depth_edges(const Image<std::uint16_t>& depth, double depth_scale,
 
 void colour_edges_from_grey(const Image<std::uint8_t>& grey, const EdgeOptions& options,
                             EdgeFrame& frame) {
-  const cv::Mat src(grey.height(), grey.width(), CV_8UC1,
-                    const_cast<std::uint8_t*>(grey.data()));
+  const cv::Mat src(grey.height(), grey.width(), CV_8UC1, const_cast<std::uint8_t*>(grey.data()));
   cv::Mat blurred, edges, dist;
   if (options.blur_sigma_px > 0.0)
     cv::GaussianBlur(src, blurred, cv::Size(0, 0), options.blur_sigma_px);
@@ -334,7 +336,8 @@ void colour_edges_from_grey(const Image<std::uint8_t>& grey, const EdgeOptions& 
   cv::distanceTransform(not_edges, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
   const int w = grey.width(), h = grey.height();
   frame.distance.resize(w, h);
-  for (int y = 0; y < h; ++y) std::copy(dist.ptr<float>(y), dist.ptr<float>(y) + w, frame.distance.row(y));
+  for (int y = 0; y < h; ++y)
+    std::copy(dist.ptr<float>(y), dist.ptr<float>(y) + w, frame.distance.row(y));
 }
 
 EdgeFrame make_edge_frame(const Image<std::uint16_t>& depth, double depth_scale,
@@ -384,8 +387,9 @@ void collect_distances(const EdgeFrame& fr, const ColourCamera* camera, EdgeDist
 void summarise(std::vector<float>& d, EdgeDistances& out) {
   out.points = d.size();
   if (d.empty()) return;
-  out.within_2px = static_cast<double>(std::count_if(d.begin(), d.end(), [](float x) { return x <= 2.0f; })) /
-                   static_cast<double>(d.size());
+  out.within_2px =
+      static_cast<double>(std::count_if(d.begin(), d.end(), [](float x) { return x <= 2.0f; })) /
+      static_cast<double>(d.size());
   out.median_px = percentile(d, 0.5);
   out.p90_px = percentile(d, 0.9);
 }
@@ -422,8 +426,8 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
   std::size_t total = 0;
   for (const EdgeFrame& fr : frames) total += fr.points.size();
   if (total < 200)
-    throw input_error("too few depth edges to register: " + std::to_string(total) +
-                      " points in " + std::to_string(frames.size()) + " frames (need 200)");
+    throw input_error("too few depth edges to register: " + std::to_string(total) + " points in " +
+                      std::to_string(frames.size()) + " frames (need 200)");
   auto say = [&](const std::string& m) {
     if (progress) progress(m);
   };
@@ -445,26 +449,30 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
         std::max(20, std::min(options.coarse_points_per_frame,
                               options.coarse_points_total / static_cast<int>(frames.size())));
     const int m = std::min(n, per_frame);
-    for (int i = 0; i < m; ++i) pick[k].push_back(static_cast<int>((static_cast<long long>(i) * n) / m));
+    for (int i = 0; i < m; ++i)
+      pick[k].push_back(static_cast<int>((static_cast<long long>(i) * n) / m));
   }
   struct Cell {
     double cost, du, dv, tx, fs;
   };
   std::vector<Cell> cells;
   const double coarse_tau = 15.0;
-  const int steps = static_cast<int>(std::floor(options.coarse_shift_px / options.coarse_shift_step_px));
+  const int steps =
+      static_cast<int>(std::floor(options.coarse_shift_px / options.coarse_shift_step_px));
   for (double fs : options.coarse_focal_scale) {
     for (double tx : options.coarse_baseline_m) {
       for (int iy = -steps; iy <= steps; ++iy) {
         for (int ix = -steps; ix <= steps; ++ix) {
-          const double du = ix * options.coarse_shift_step_px, dv = iy * options.coarse_shift_step_px;
+          const double du = ix * options.coarse_shift_step_px,
+                       dv = iy * options.coarse_shift_step_px;
           const State s = coarse_state(nominal_state, du, dv, tx, fs);
           cells.push_back({coarse_cost(frames, pick, s, coarse_tau), du, dv, tx, fs});
         }
       }
     }
   }
-  std::sort(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.cost < b.cost; });
+  std::sort(cells.begin(), cells.end(),
+            [](const Cell& a, const Cell& b) { return a.cost < b.cost; });
   std::vector<Cell> starts;
   for (const Cell& c : cells) {
     if (static_cast<int>(starts.size()) >= options.refine_candidates) break;
@@ -492,7 +500,8 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
   double best_cost = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < starts.size(); ++k) {
     State s = coarse_state(nominal_state, starts[k].du, starts[k].dv, starts[k].tx, starts[k].fs);
-    for (double tau : options.truncation_px) s = refine(frames, s, tau, options.iterations_per_stage, free);
+    for (double tau : options.truncation_px)
+      s = refine(frames, s, tau, options.iterations_per_stage, free);
     const Cost c = truncated_cost(frames, s, last_tau);
     std::snprintf(line, sizeof line,
                   "refined start %zu/%zu: mean truncated squared distance %.3f px^2, %zu/%zu "
@@ -531,8 +540,9 @@ FitResult fit_colour_camera(const std::vector<EdgeFrame>& frames, const ColourCa
   if (n.inliers < 100 || !(result.condition < 1e8)) {
     throw Error(ExitCode::kFailure,
                 "colour registration is degenerate: the depth edges do not constrain every "
-                "parameter (condition number " + std::to_string(result.condition) + ", " +
-                    std::to_string(n.inliers) + " inlier points); use more frames or a scene "
+                "parameter (condition number " +
+                    std::to_string(result.condition) + ", " + std::to_string(n.inliers) +
+                    " inlier points); use more frames or a scene "
                     "with edges at several depths");
   }
   const double dof = std::max<double>(1.0, static_cast<double>(n.inliers) - m);
@@ -581,10 +591,9 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
   std::vector<TumListEntry> rgb_entries = read_tum_list(rgb_list.string());
   if (depth_entries.empty()) throw input_error(depth_list.string() + ": lists no frames");
   if (rgb_entries.empty()) throw input_error(rgb_list.string() + ": lists no frames");
-  std::stable_sort(rgb_entries.begin(), rgb_entries.end(),
-                   [](const TumListEntry& a, const TumListEntry& b) {
-                     return a.timestamp_s < b.timestamp_s;
-                   });
+  std::stable_sort(
+      rgb_entries.begin(), rgb_entries.end(),
+      [](const TumListEntry& a, const TumListEntry& b) { return a.timestamp_s < b.timestamp_s; });
 
   auto skip = [&](const std::string& message) {
     ++result.skipped;
@@ -600,9 +609,9 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
   int colour_w = 0, colour_h = 0;
   Image<std::uint16_t> depth;
   int attempted = 0;
-  const int wanted = std::min<long long>(options.max_frames,
-                                         (static_cast<long long>(depth_entries.size()) + options.step - 1) /
-                                             options.step);
+  const int wanted = std::min<long long>(
+      options.max_frames,
+      (static_cast<long long>(depth_entries.size()) + options.step - 1) / options.step);
   for (std::size_t i = 0; i < depth_entries.size() && attempted < options.max_frames;
        i += static_cast<std::size_t>(options.step)) {
     ++attempted;
@@ -634,9 +643,9 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
       continue;
     }
     if (depth.width() != info.intrinsics.width || depth.height() != info.intrinsics.height) {
-      skip(depth_path + ": " + std::to_string(depth.width()) + "x" + std::to_string(depth.height()) +
-           " but the calibration is " + std::to_string(info.intrinsics.width) + "x" +
-           std::to_string(info.intrinsics.height));
+      skip(depth_path + ": " + std::to_string(depth.width()) + "x" +
+           std::to_string(depth.height()) + " but the calibration is " +
+           std::to_string(info.intrinsics.width) + "x" + std::to_string(info.intrinsics.height));
       continue;
     }
     const std::string colour_path = (dir / match->path).string();
@@ -664,7 +673,8 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
       continue;
     }
     if (frame.colour_edge_pixels < 100) {
-      skip(colour_path + ": too few colour edges (" + std::to_string(frame.colour_edge_pixels) + ")");
+      skip(colour_path + ": too few colour edges (" + std::to_string(frame.colour_edge_pixels) +
+           ")");
       continue;
     }
     if (options.verbose) {
@@ -677,7 +687,8 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
   }
   if (frames.empty())
     throw input_error(folder + ": no usable depth/colour pair among " + std::to_string(attempted) +
-                      " read" + (result.first_skip.empty() ? "" : " (first: " + result.first_skip + ")"));
+                      " read" +
+                      (result.first_skip.empty() ? "" : " (first: " + result.first_skip + ")"));
 
   result.read_s = seconds_since(start);
   // Every other usable pair fits; the rest measure (a single pair does both).

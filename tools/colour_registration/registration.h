@@ -32,21 +32,21 @@ namespace aoscan::colour_registration {
 
 /// How edges are found in one depth/colour pair.
 struct EdgeOptions {
-  double min_jump_m = 0.05;     ///< a depth jump is at least this (metres) ...
-  double min_jump_rel = 0.05;   ///< ... and at least this fraction of the nearer depth
-  int max_points = 2000;        ///< depth-edge points kept per frame (evenly thinned)
-  int border_px = 4;            ///< depth edges this close to the image border are ignored
-  double canny_low = 30.0;      ///< Canny thresholds on the blurred grey image (L2 gradient)
+  double min_jump_m = 0.05;    ///< a depth jump is at least this (metres) ...
+  double min_jump_rel = 0.05;  ///< ... and at least this fraction of the nearer depth
+  int max_points = 2000;       ///< depth-edge points kept per frame (evenly thinned)
+  int border_px = 4;           ///< depth edges this close to the image border are ignored
+  double canny_low = 30.0;     ///< Canny thresholds on the blurred grey image (L2 gradient)
   double canny_high = 90.0;
-  double blur_sigma_px = 1.2;   ///< Gaussian blur before Canny
+  double blur_sigma_px = 1.2;  ///< Gaussian blur before Canny
 };
 
 /// One frame ready for registration.
 struct EdgeFrame {
-  int frame = -1;                              ///< index in the recording
-  std::vector<Eigen::Vector3d> points;         ///< depth-edge points, depth camera frame (m)
-  std::vector<Eigen::Vector2d> depth_pixels;   ///< the same points in depth-image pixels
-  Image<float> distance;                       ///< px to the nearest colour edge (colour image)
+  int frame = -1;                             ///< index in the recording
+  std::vector<Eigen::Vector3d> points;        ///< depth-edge points, depth camera frame (m)
+  std::vector<Eigen::Vector2d> depth_pixels;  ///< the same points in depth-image pixels
+  Image<float> distance;                      ///< px to the nearest colour edge (colour image)
   int colour_edge_pixels = 0;
 };
 
@@ -73,11 +73,11 @@ ColourCamera nominal_colour_camera(int width, int height);
 
 /// Distances from projected depth-edge points to the nearest colour edge.
 struct EdgeDistances {
-  std::size_t points = 0;    ///< points that land inside the colour image (measured)
-  std::size_t outside = 0;   ///< points that land outside it (not measured)
+  std::size_t points = 0;   ///< points that land inside the colour image (measured)
+  std::size_t outside = 0;  ///< points that land outside it (not measured)
   double median_px = 0.0;
   double p90_px = 0.0;
-  double within_2px = 0.0;   ///< fraction of measured points within 2 px
+  double within_2px = 0.0;  ///< fraction of measured points within 2 px
 };
 
 /// The distances with `camera` (nullptr: colour assumed registered, depth pixel (x, y) is colour
@@ -99,23 +99,23 @@ struct FitOptions {
   std::vector<double> coarse_baseline_m = {-0.05, -0.025, 0.0, 0.025, 0.05};
   std::vector<double> coarse_focal_scale = {0.9, 0.95, 1.0, 1.05, 1.1};
   int coarse_points_per_frame = 300;
-  int coarse_points_total = 6000;    ///< fewer per frame when many frames
+  int coarse_points_total = 6000;                        ///< fewer per frame when many frames
   std::vector<double> truncation_px = {10.0, 5.0, 3.0};  ///< LM stages
   int iterations_per_stage = 20;
-  int refine_candidates = 3;         ///< best distinct coarse cells refined
+  int refine_candidates = 3;  ///< best distinct coarse cells refined
 };
 
 /// The fit and what it says about itself.
 struct FitResult {
   ColourCamera camera;
-  double coarse_cost = 0.0;      ///< mean truncated distance of the best coarse cell (px)
-  double final_cost = 0.0;       ///< mean distance truncated at the last radius (px)
-  std::size_t inliers = 0;       ///< points within the last radius
-  std::size_t points = 0;        ///< points used
+  double coarse_cost = 0.0;  ///< mean truncated distance of the best coarse cell (px)
+  double final_cost = 0.0;   ///< mean distance truncated at the last radius (px)
+  std::size_t inliers = 0;   ///< points within the last radius
+  std::size_t points = 0;    ///< points used
   /// Formal standard deviations (rx, ry, rz rad; tx, ty, tz m; f, cx, cy px; 0 when kept fixed)
   /// from the last stage's normal equations: a lower bound (edge residuals are correlated).
   std::array<double, 9> sigma{};
-  double condition = 0.0;        ///< condition number of the correlation-scaled normal matrix
+  double condition = 0.0;  ///< condition number of the correlation-scaled normal matrix
 };
 
 using Progress = std::function<void(const std::string&)>;
@@ -143,7 +143,7 @@ struct RecordingResult {
   std::string depth_calibration_origin;
   FitResult fit;
   std::vector<int> fit_frames, eval_frames;  ///< recording indices
-  bool held_out = false;      ///< eval_frames are not fit_frames
+  bool held_out = false;                     ///< eval_frames are not fit_frames
   EdgeDistances before, after;
   std::vector<EdgeDistances> before_per_frame, after_per_frame;  ///< of eval_frames
   double chance_median_px = 0.0;  ///< chance_median_px() of the measured frames
@@ -151,8 +151,8 @@ struct RecordingResult {
   /// assumption puts them (same pixel coordinates): median and 90th percentile, pixels.
   double offset_median_px = 0.0, offset_p90_px = 0.0;
   double read_s = 0.0, fit_s = 0.0;  ///< wall-clock seconds reading and fitting
-  std::size_t skipped = 0;    ///< unreadable or unusable pairs
-  std::string first_skip;     ///< the first skip's message
+  std::size_t skipped = 0;           ///< unreadable or unusable pairs
+  std::string first_skip;            ///< the first skip's message
 };
 
 /// Reads every `step`-th depth/colour pair of a TUM-layout folder (depth.txt, rgb.txt,

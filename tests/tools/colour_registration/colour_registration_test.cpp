@@ -56,13 +56,17 @@ struct CardScene {
 /// runs on the grey image).
 CardScene make_scene(int k) {
   CardScene s;
-  const Rgb8 colours[] = {{150, 50, 40}, {40, 150, 90}, {90, 170, 250}, {250, 180, 100},
+  const Rgb8 colours[] = {{150, 50, 40},
+                          {40, 150, 90},
+                          {90, 170, 250},
+                          {250, 180, 100},
                           {240, 240, 200}};  // grey 79, 110, 155, 192, 236
   for (int i = 0; i < 5; ++i) {
     const double z = 0.9 + 0.35 * ((i + 2 * k) % 5) + 0.05 * k;
     const double cx = (-0.5 + 0.25 * i + 0.07 * std::sin(1.3 * k + i)) * z / 1.6;
     const double cy = (0.25 * std::cos(0.9 * k + 1.7 * i)) * z / 1.6;
-    const double hw = (0.10 + 0.03 * ((i + k) % 3)) * z / 1.6, hh = (0.12 + 0.04 * ((i * k) % 3)) * z / 1.6;
+    const double hw = (0.10 + 0.03 * ((i + k) % 3)) * z / 1.6,
+                 hh = (0.12 + 0.04 * ((i * k) % 3)) * z / 1.6;
     s.cards.push_back({cx - hw, cx + hw, cy - hh, cy + hh, z, colours[(i + k) % 5]});
   }
   return s;
@@ -97,7 +101,8 @@ Image<std::uint16_t> render_depth(const CardScene& scene, const Intrinsics& k) {
   for (int y = 0; y < k.height; ++y)
     for (int x = 0; x < k.width; ++x) {
       const Eigen::Vector3d dir((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);
-      depth(x, y) = static_cast<std::uint16_t>(std::lround(1000.0 * scene.hit(Eigen::Vector3d::Zero(), dir, nullptr)));
+      depth(x, y) = static_cast<std::uint16_t>(
+          std::lround(1000.0 * scene.hit(Eigen::Vector3d::Zero(), dir, nullptr)));
     }
   return depth;
 }
@@ -114,15 +119,17 @@ Image<Rgb8> render_colour(const CardScene& scene, const ColourCamera& camera) {
       for (int sy = 0; sy < 4; ++sy)
         for (int sx = 0; sx < 4; ++sx) {
           const double u = x - 0.375 + 0.25 * sx, v = y - 0.375 + 0.25 * sy;
-          const Eigen::Vector3d dir = Rt * Eigen::Vector3d((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+          const Eigen::Vector3d dir =
+              Rt * Eigen::Vector3d((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
           Rgb8 c;
           scene.hit(origin, dir, &c);
           r += c.r;
           g += c.g;
           b += c.b;
         }
-      out(x, y) = Rgb8{static_cast<std::uint8_t>((r + 8) / 16), static_cast<std::uint8_t>((g + 8) / 16),
-                       static_cast<std::uint8_t>((b + 8) / 16)};
+      out(x, y) =
+          Rgb8{static_cast<std::uint8_t>((r + 8) / 16), static_cast<std::uint8_t>((g + 8) / 16),
+               static_cast<std::uint8_t>((b + 8) / 16)};
     }
   return out;
 }
@@ -145,12 +152,16 @@ TEST(ColourRegistration, RecoversAKnownRegistrationOfSyntheticPairs) {
   const FitResult r = fit_colour_camera(fit, nominal_colour_camera(640, 480));
   const ColourCamera truth = true_colour_camera();
 
-  const Eigen::Vector3d dt = r.camera.T_colour_depth.translation() - truth.T_colour_depth.translation();
+  const Eigen::Vector3d dt =
+      r.camera.T_colour_depth.translation() - truth.T_colour_depth.translation();
   const double angle_deg = Eigen::AngleAxisd(r.camera.T_colour_depth.rotation() *
                                              truth.T_colour_depth.rotation().transpose())
-                               .angle() * 180.0 / kPi;
-  std::printf("synthetic: translation error %.2f mm, rotation error %.3f deg, focal %.2f px (true "
-              "532)\n", 1e3 * dt.norm(), angle_deg, r.camera.intrinsics.fx);
+                               .angle() *
+                           180.0 / kPi;
+  std::printf(
+      "synthetic: translation error %.2f mm, rotation error %.3f deg, focal %.2f px (true "
+      "532)\n",
+      1e3 * dt.norm(), angle_deg, r.camera.intrinsics.fx);
   // Edges are located to about half a pixel (Canny's pixel grid, depth's pixel boundaries): a
   // 0.5 px shift at 2 m and 532 px is 1.9 mm, or 0.054 degrees; averaged over thousands of edge
   // points the errors are well below that. Tolerances: 2 mm, 0.1 degree, 1 px of focal length.
@@ -204,7 +215,8 @@ TEST(ColourRegistration, BadFoldersAreOneLineErrorsNamingTheFile) {
   {
     const Error e = registration_error(dir);
     EXPECT_EQ(e.code(), ExitCode::kBadInput);
-    EXPECT_EQ(std::string(e.what()), dir + "/rgb.txt: not found (the recording has no colour stream)");
+    EXPECT_EQ(std::string(e.what()),
+              dir + "/rgb.txt: not found (the recording has no colour stream)");
   }
   // Both depth frames missing, colour garbage: every pair skipped, the first skip quoted.
   std::ofstream(dir + "/rgb.txt") << "0.0 rgb/0.png\n0.1 rgb/1.png\n";
@@ -212,7 +224,8 @@ TEST(ColourRegistration, BadFoldersAreOneLineErrorsNamingTheFile) {
   std::ofstream(dir + "/rgb/0.png") << "not a png";
   const Image<std::uint16_t> depth(640, 480, 1000);
   std::filesystem::create_directories(dir + "/depth");
-  write_png(dir + "/depth/0.png", 640, 480, PngFormat::kGrey16, [&](int y) { return depth.row(y); });
+  write_png(dir + "/depth/0.png", 640, 480, PngFormat::kGrey16,
+            [&](int y) { return depth.row(y); });
   {
     const Error e = registration_error(dir);
     EXPECT_EQ(e.code(), ExitCode::kBadInput);
@@ -244,10 +257,11 @@ TEST(ColourRegistration, RegistersRedKitchenWithinTwoPixels) {
   const RecordingResult r = register_recording(kitchen, o);
   EXPECT_EQ(r.skipped, 0u);
   EXPECT_TRUE(r.held_out);
-  std::printf("RedKitchen, 8+8 pairs: before median %.2f px, after %.2f px; baseline %.1f mm, "
-              "focal %.1f px\n",
-              r.before.median_px, r.after.median_px,
-              1e3 * r.fit.camera.T_colour_depth.translation().norm(), r.fit.camera.intrinsics.fx);
+  std::printf(
+      "RedKitchen, 8+8 pairs: before median %.2f px, after %.2f px; baseline %.1f mm, "
+      "focal %.1f px\n",
+      r.before.median_px, r.after.median_px, 1e3 * r.fit.camera.T_colour_depth.translation().norm(),
+      r.fit.camera.intrinsics.fx);
   EXPECT_LT(r.after.median_px, 2.0);
   EXPECT_GT(r.before.median_px, 2.0 * r.after.median_px);
   // A Kinect v1: colour camera about 2.5 cm beside the depth camera, focal near 525 px.
