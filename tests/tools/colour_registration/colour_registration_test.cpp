@@ -2,8 +2,9 @@
 // (flat cards of different colours in front of a wall, the colour camera offset and rotated, with
 // its own focal length) the estimator recovers the transform and the focal length, the edge
 // distance drops below a pixel on pairs it did not fit; the tool's folder reader names the file
-// of each bad input; on RedKitchen (when the shared data is present) it brings the edges within
-// 2 px.
+// of each bad input, and the executable exits 2 and 3 as the contract says; the bundled RedKitchen
+// calibration reads back; on RedKitchen (when the shared data is present) the estimator brings the
+// edges within 2 px.
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -17,6 +18,7 @@
 #include "io/camera_json.h"
 #include "io/png_write.h"
 #include "registration.h"
+#include "support/cli_util.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan::colour_registration {
@@ -245,6 +247,51 @@ TEST(ColourRegistration, BadFoldersAreOneLineErrorsNamingTheFile) {
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ExitCode::kUsage);
   }
+}
+
+/// Runs aoscan-colour-registration (next to aoscan) with `args`; output kept in `scratch`.
+testing::CliRun run_tool(const std::string& args, const std::filesystem::path& scratch) {
+  const std::filesystem::path tool =
+      std::filesystem::path(AOSCAN_BINARY).parent_path() / "aoscan-colour-registration";
+  const std::string cmd = testing::quote(tool.string()) + " " + args + " > " +
+                          testing::quote((scratch / "stdout.txt").string()) + " 2> " +
+                          testing::quote((scratch / "stderr.txt").string()) + " < /dev/null";
+  return testing::collect(testing::exit_code_of(std::system(cmd.c_str())), scratch);
+}
+
+TEST(ColourRegistration, ToolExitCodes) {
+  testing::ScratchDir scratch;
+  const std::filesystem::path dir = scratch.path("rec");
+  std::filesystem::create_directories(dir);
+  EXPECT_EQ(run_tool("", scratch.path("")).exit_code, 2);  // FOLDER and --out are required
+  EXPECT_EQ(run_tool(testing::quote(dir.string()) + " --out x.json --frames 0", scratch.path(""))
+                .exit_code,
+            2);
+  std::ofstream(dir / "depth.txt") << "0.0 depth/0.png\n";
+  const testing::CliRun r = run_tool(
+      testing::quote(dir.string()) + " --out " + testing::quote(scratch.file("camera.json")),
+      scratch.path(""));
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_EQ(r.err, "aoscan-colour-registration: " + (dir / "rgb.txt").string() +
+                       ": not found (the recording has no colour stream)\n");
+  EXPECT_FALSE(std::filesystem::exists(scratch.path("camera.json")));
+}
+
+TEST(ColourRegistration, TheBundledRedKitchenCalibrationReads) {
+  const std::string path =
+      std::string(AOSCAN_SOURCE_DIR) + "/recordings/7scenes-redkitchen.camera.json";
+  const CameraInfo info = read_camera_json(path, 640, 480);
+  EXPECT_EQ(info.intrinsics.fx, 585.0);
+  EXPECT_EQ(info.depth_scale, 1000.0);
+  ASSERT_TRUE(info.colour.has_value());
+  EXPECT_FALSE(info.colour->registered);
+  EXPECT_EQ(info.colour->intrinsics.width, 640);
+  EXPECT_NEAR(info.colour->intrinsics.fx, 527.2, 0.1);
+  // The colour camera about 2.6 cm to the depth camera's right (+x), as on a Kinect v1.
+  const Pose& T = info.colour->T_colour_depth;
+  const Eigen::Vector3d centre = -(T.rotation().transpose() * T.translation());
+  EXPECT_NEAR(centre.x(), 0.0257, 0.001);
+  EXPECT_LT(centre.tail<2>().norm(), 0.005);
 }
 
 TEST(ColourRegistration, RegistersRedKitchenWithinTwoPixels) {
