@@ -38,6 +38,11 @@ int run(int argc, char** argv) {
   app.add_option("--frames", options.max_frames, "pairs read at most (half fit, half measure)")
       ->capture_default_str();
   app.add_option("--step", options.step, "read every K-th pair")->capture_default_str();
+  bool on_boundary = false;
+  app.add_flag("--edge-on-boundary", on_boundary,
+               "put depth-edge points on the boundary between the two pixels of a jump (exact "
+               "depth, e.g. synthetic recordings) instead of at the nearer pixel (real depth "
+               "cameras, whose nearer surface reaches past the edge)");
   app.add_flag("--fit-principal-point", options.fit.fit_principal_point,
                "fit cx, cy too (to first order the same as a small rotation: kept at the image "
                "centre by default)");
@@ -50,6 +55,7 @@ int run(int argc, char** argv) {
     return code == 0 ? 0 : static_cast<int>(ExitCode::kUsage);
   }
   try {
+    if (on_boundary) options.edges.placement = EdgePlacement::kBoundary;
     if (options.max_frames < 1) throw usage_error("--frames must be at least 1");
     if (options.step < 1) throw usage_error("--step must be at least 1");
     // An output that cannot be written fails now, not after the fit.

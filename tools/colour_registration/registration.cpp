@@ -300,8 +300,10 @@ void find_depth_edges(const Image<std::uint16_t>& depth, double depth_scale,
         if (zn2 <= 0.0 || zf2 <= 0.0) continue;
         const double gap = zf - zn;
         if (std::abs(zn2 - zn) > 0.5 * gap || std::abs(zf2 - zf) > 0.5 * gap) continue;
-        // The boundary lies between the two pixel centres; the point is on the nearer surface.
-        const double u = x + 0.5 * dx, v = y + 0.5 * dy;
+        // The point is on the nearer surface: at its pixel, or on the boundary between the two.
+        const bool at_near = options.placement == EdgePlacement::kNearPixel;
+        const double u = at_near ? (first_near ? x : x + dx) : x + 0.5 * dx;
+        const double v = at_near ? (first_near ? y : y + dy) : y + 0.5 * dy;
         all_points.push_back(depth_intrinsics.unproject(u, v, zn));
         all_pixels.emplace_back(u, v);
       }
