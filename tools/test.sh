@@ -12,6 +12,9 @@ cd "$root"
 
 build_dir=build
 flags=(-DCMAKE_BUILD_TYPE=Release)
+# aoscan, the suites and the tools they run; the benchmarks are left to `cmake --build build`
+# (README, Benchmarks), which CI does not need.
+targets=(aoscan aoscan_tests)
 if [[ "${1:-}" == "--sanitize" ]]; then
   build_dir=build-asan
   # -O1 keeps Eigen-heavy tests quick and the build short; asserts stay on.

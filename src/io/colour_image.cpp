@@ -83,7 +83,7 @@ Status read_colour_image(const std::string& path, Image<Rgb8>& out,
 void write_colour_png(const std::string& path, const Image<Rgb8>& image) {
   static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are PNG's RGB rows");
   write_png(path, image.width(), image.height(), PngFormat::kRgb8,
-            [&image](int y) -> const void* { return &image(0, y); });
+            [&image](int y) -> const void* { return image.row(y); });
 }
 
 }  // namespace aoscan

@@ -15,7 +15,6 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "core/status.h"
-#include "io/png_write.h"
 
 namespace aoscan {
 namespace {
@@ -239,12 +238,6 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
       }
     }
   }
-}
-
-void write_rgb_png(const std::string& path, const Image<Rgb8>& image) {
-  static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are written as packed RGB");
-  write_png(path, image.width(), image.height(), PngFormat::kRgb8,
-            [&image](int y) -> const void* { return image.row(y); });
 }
 
 }  // namespace aoscan

@@ -84,8 +84,5 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out,
 void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
                      const ViewStyle& style = {});
 
-/// Writes an 8-bit RGB PNG. Throws Error (exit 1) naming the file when it cannot be written and
-/// usage_error for an empty image.
-void write_rgb_png(const std::string& path, const Image<Rgb8>& image);
 
 }  // namespace aoscan

@@ -7,6 +7,8 @@
 #include <system_error>
 #include <utility>
 
+#include "io/colour_image.h"
+
 namespace aoscan {
 
 SnapshotWriter::SnapshotWriter(SnapshotOptions options) : options_(std::move(options)) {
@@ -38,7 +40,7 @@ Status SnapshotWriter::write(const ViewFrame& frame) {
     try {
       composite_view(frame, view, buffer_, options_.style);
       if (buffer_.empty()) return Status::internal(file + ": frame has no image size");
-      write_rgb_png(file, buffer_);
+      write_colour_png(file, buffer_);
       ++files_written_;
     } catch (const std::exception& e) {
       return Status::internal(e.what());

@@ -221,9 +221,10 @@ TEST(AssociateLists, OneColourFrameServesOneDepthFrame) {
   const auto partner = associate_lists(stamps({1.0, 1.02}), stamps({1.01}), 0.02);
   EXPECT_EQ(partner[0], std::optional<std::size_t>(0));
   EXPECT_FALSE(partner[1].has_value());
-  // Exactly max_dt apart still pairs; nothing pairs with an empty list.
-  EXPECT_EQ(associate_lists(stamps({2.0}), stamps({2.02}), 0.02)[0],
+  // Just within max_dt pairs, just beyond does not; nothing pairs with an empty list.
+  EXPECT_EQ(associate_lists(stamps({2.0}), stamps({2.0195}), 0.02)[0],
             std::optional<std::size_t>(0));
+  EXPECT_FALSE(associate_lists(stamps({2.0}), stamps({2.0205}), 0.02)[0].has_value());
   EXPECT_FALSE(associate_lists(stamps({2.0}), {}, 0.02)[0].has_value());
   EXPECT_TRUE(associate_lists({}, stamps({2.0}), 0.02).empty());
 }

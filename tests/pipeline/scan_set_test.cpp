@@ -296,6 +296,7 @@ TEST(ScanSet, NonFinitePointsAreSkippedAndCountedAndChangeNothingElse) {
   TriangleMesh cloud = read_ply(dir.file("clean.ply"));
   cloud.normals.clear();
   cloud.quality.clear();
+  cloud.colours.clear();
   write_ply(dir.file("clean.ply"), cloud);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();

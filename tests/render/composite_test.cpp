@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "core/status.h"
+#include "io/colour_image.h"
 #include "render/render_test_util.h"
 #include "support/scratch_dir.h"
 
@@ -290,7 +291,7 @@ TEST(RgbPng, RoundTrip) {
     for (int x = 0; x < 5; ++x)
       image(x, y) = {static_cast<std::uint8_t>(50 * x), static_cast<std::uint8_t>(100 * y),
                      static_cast<std::uint8_t>(x + y)};
-  write_rgb_png(dir.file("a.png"), image);
+  write_colour_png(dir.file("a.png"), image);
   Image<Rgb8> back;
   ASSERT_TRUE(read_rgb_png(dir.file("a.png"), back));
   EXPECT_EQ(back, image);
@@ -300,14 +301,14 @@ TEST(RgbPng, ErrorsNameTheFile) {
   testing::ScratchDir dir;
   const std::string bad = dir.file("missing-folder/a.png");
   try {
-    write_rgb_png(bad, Image<Rgb8>(2, 2));
+    write_colour_png(bad, Image<Rgb8>(2, 2));
     FAIL() << "no exception";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ExitCode::kFailure);
     EXPECT_NE(std::string(e.what()).find(bad), std::string::npos);
     EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
   }
-  EXPECT_THROW(write_rgb_png(dir.file("b.png"), Image<Rgb8>()), Error);
+  EXPECT_THROW(write_colour_png(dir.file("b.png"), Image<Rgb8>()), Error);
 }
 
 }  // namespace

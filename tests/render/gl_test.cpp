@@ -506,7 +506,10 @@ TEST(LiveViewNoDisplay, NothingLinksLibGl) {
   std::ifstream in(out);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("libglfw"), std::string::npos) << text;
-  for (const char* lib : {"libGL.so", "libGLX.so", "libOpenGL.so", "libEGL.so"})
+  // libGLX.so.0, GLVND's GLX dispatch, is mapped by Debian's OpenCV core (built with OpenGL
+  // interop), which the colour images of io use: it loads no GL implementation and opens no
+  // display until a GLX function is called, so it is not checked here.
+  for (const char* lib : {"libGL.so", "libOpenGL.so", "libEGL.so"})
     EXPECT_EQ(text.find(lib), std::string::npos) << lib << " linked:\n" << text;
 }
 

@@ -152,8 +152,9 @@ TEST(ColourVolume, OnlyVoxelsNearTheSurfaceTheFrameSawAreColoured) {
     for (int z = 0; z < kBlockSize; ++z)
       for (int y = 0; y < kBlockSize; ++y)
         for (int x = 0; x < kBlockSize; ++x)
-          if (cb->voxels[static_cast<std::size_t>(voxel_index(x, y, z))].weight > 0)
+          if (cb->voxels[static_cast<std::size_t>(voxel_index(x, y, z))].weight > 0) {
             ASSERT_LE(std::abs((base.z() + z) * f.volume.voxel_size_m() - kPlaneZ), band + 1e-6);
+          }
   }
 }
 
@@ -171,8 +172,9 @@ TEST(ColourVolume, SameColourForOneAndTwoThreads) {
   ASSERT_EQ(one.colour.block_count(), two.colour.block_count());
   for (int i = 0; i < one.volume.block_count(); ++i) {
     ASSERT_EQ(one.colour.block(i) == nullptr, two.colour.block(i) == nullptr);
-    if (one.colour.block(i) != nullptr)
+    if (one.colour.block(i) != nullptr) {
       ASSERT_EQ(0, std::memcmp(one.colour.block(i), two.colour.block(i), sizeof(ColourBlock)));
+    }
   }
 }
 

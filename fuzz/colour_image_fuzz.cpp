@@ -1,0 +1,26 @@
+/// @file colour_image_fuzz.cpp
+/// @brief libFuzzer target: colour images of recordings (read_colour_image, behind the TUM
+/// source's rgb.txt frames): whatever OpenCV decodes becomes 8-bit RGB, anything else a one-line
+/// corrupt frame.
+#include "fuzz/fuzz_input.h"
+#include "io/colour_image.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace aoscan;
+  static fuzz::InputFile file("colour.img");
+  const std::string& path = file.write(data, size);
+  Image<Rgb8> image;
+  const Status status = read_colour_image(path, image, 7);
+  if (status.is_ok()) {
+    if (image.width() <= 0 || image.height() <= 0) fuzz::bug("decoded an empty image");
+    unsigned sum = 0;  // touch every pixel: ASan checks the rows exist
+    for (int y = 0; y < image.height(); ++y)
+      for (int x = 0; x < image.width(); ++x) sum += image.row(y)[x].g;
+    if (sum == ~0u) fuzz::bug("unreachable");
+  } else {
+    if (status.code() != Status::Code::kCorruptFrame)
+      fuzz::bug("unexpected status: " + status.message());
+    fuzz::check_message(status.message(), path + " (frame 7)");
+  }
+  return 0;
+}
