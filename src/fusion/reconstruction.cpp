@@ -14,9 +14,10 @@
 namespace aoscan {
 namespace {
 
-/// Voxels take colour within this many truncation distances of the surface the frame saw: the
-/// band that a mesh vertex's eight voxels lie in, with room for the depth noise.
-constexpr float kColourBandTruncations = 0.5f;
+/// Voxels take colour within this many voxels of the fused surface (a mesh vertex's eight voxels
+/// lie within sqrt(3) voxels of it), when the frame saw a surface within the truncation along
+/// their ray (at grazing angles that distance along the ray is several times the true one).
+constexpr float kColourShellVoxels = 2.0f;
 /// The colour of a vertex with no coloured voxel around it.
 constexpr Rgb8 kUnobservedColour{128, 128, 128};
 
@@ -109,8 +110,8 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
         config_.fusion.colour == ColourFusion::kOn)
       step.colour = colour_.integrate(volume_, integrator_.updated_blocks(), frame.depth_m,
                                       intrinsics, step.T_world_camera, colour->image,
-                                      colour->camera, kColourBandTruncations * volume_.truncation_m(),
-                                      config_.fusion.colour_max_weight);
+                                      colour->camera, kColourShellVoxels * volume_.voxel_size_m(),
+                                      volume_.truncation_m(), config_.fusion.colour_max_weight);
   }
   if (step.new_model && volume_.block_count() == 0) {
     // Nothing fused (no valid depth): nothing to track the next frame against. The model starts

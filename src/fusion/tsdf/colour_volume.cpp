@@ -57,7 +57,7 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
                                              const Intrinsics& depth_intrinsics,
                                              const Pose& T_world_camera,
                                              const Image<Rgb8>& colour, const ColourCamera& camera,
-                                             float band_m, int max_weight) {
+                                             float shell_m, float band_m, int max_weight) {
   ColourIntegrateStats stats;
   if (depth_m.width() != depth_intrinsics.width || depth_m.height() != depth_intrinsics.height)
     throw usage_error("colour integration: the depth differs in size from its intrinsics");
@@ -81,8 +81,8 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
   const float cfx = static_cast<float>(kc.fx), cfy = static_cast<float>(kc.fy);
   const float ccx = static_cast<float>(kc.cx), ccy = static_cast<float>(kc.cy);
   const float vs = volume.voxel_size_m();
-  // Voxels whose fused TSDF puts them farther from the surface than the band are not looked at.
-  const float band_tsdf = band_m / volume.truncation_m();
+  // Voxels whose fused TSDF puts them outside the shell are not looked at.
+  const float shell_tsdf = shell_m / volume.truncation_m();
   const float cap = static_cast<float>(std::clamp(max_weight, 1, 255));
   const int width = depth_m.width(), height = depth_m.height();
 
@@ -101,7 +101,7 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
           for (int x = 0; x < kBlockSize; ++x) {
             const int vi = voxel_index(x, y, z);
             const Voxel& voxel = tsdf.voxels[static_cast<std::size_t>(vi)];
-            if (voxel.count == 0 || std::abs(voxel.tsdf()) > band_tsdf) continue;
+            if (voxel.count == 0 || std::abs(voxel.tsdf()) > shell_tsdf) continue;
             const Eigen::Vector3f world =
                 (origin + Eigen::Vector3i(x, y, z)).cast<float>() * vs;
             const Eigen::Vector3f p = R * world + t;
@@ -168,9 +168,29 @@ bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rg
     sum[2] += w * c.b;
     weight += w;
   }
-  if (!(weight > 1e-6f)) return false;
-  out = {to_byte(sum[0] / weight), to_byte(sum[1] / weight), to_byte(sum[2] / weight)};
-  return true;
+  if (weight > 1e-6f) {
+    out = {to_byte(sum[0] / weight), to_byte(sum[1] / weight), to_byte(sum[2] / weight)};
+    return true;
+  }
+  // None of the eight is coloured (a vertex of the mesh between two surfaces at a depth edge,
+  // whose voxels lie outside both shells): the nearest coloured voxel one voxel further out.
+  float best = 3.5f;
+  for (int dz = -1; dz <= 2; ++dz)
+    for (int dy = -1; dy <= 2; ++dy)
+      for (int dx = -1; dx <= 2; ++dx) {
+        const Eigen::Vector3i voxel(x0 + dx, y0 + dy, z0 + dz);
+        const float d2 = (voxel.cast<float>() - g).squaredNorm();
+        if (d2 >= best) continue;
+        const ColourBlock* cb =
+            block(volume.find_block(Eigen::Vector3i(voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3)));
+        if (cb == nullptr) continue;
+        const ColourVoxel& c = cb->voxels[static_cast<std::size_t>(
+            voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
+        if (c.weight == 0) continue;
+        best = d2;
+        out = {c.r, c.g, c.b};
+      }
+  return best < 3.5f;
 }
 
 }  // namespace aoscan

@@ -44,8 +44,9 @@ class ColourVolume {
  public:
   /// Fuses `colour` (seen by `camera`, the colour camera of the depth camera at T_world_camera)
   /// into the voxels of `blocks` (indices of `volume`'s blocks, e.g. those the depth frame just
-  /// updated): a voxel takes the colour at its projection when the depth frame saw the surface
-  /// within `band_m` of it (|depth(pixel) - z| <= band_m at the voxel's depth pixel), and its colour
+  /// updated): a voxel of the fused surface's shell (|fused TSDF| <= shell_m: the voxels a mesh
+  /// vertex samples) takes the colour at its projection when the depth frame saw a surface within
+  /// `band_m` of it along its ray (|depth(pixel) - z| <= band_m at its depth pixel), and its colour
   /// becomes the running mean, its weight capped at `max_weight`. The colour is sampled
   /// bilinearly (a registered camera: the voxel's depth pixel itself). Multi-threaded over blocks;
   /// the result does not depend on the thread count. Throws usage_error when the colour image's
@@ -53,10 +54,12 @@ class ColourVolume {
   ColourIntegrateStats integrate(const TsdfVolume& volume, const std::vector<int>& blocks,
                                  const Image<float>& depth_m, const Intrinsics& depth_intrinsics,
                                  const Pose& T_world_camera, const Image<Rgb8>& colour,
-                                 const ColourCamera& camera, float band_m, int max_weight);
+                                 const ColourCamera& camera, float shell_m, float band_m,
+                                 int max_weight);
 
   /// The colour at world point `p` (metres): the mean of the coloured voxels among the eight
-  /// around it, each weighted by its trilinear weight; false when none of them is coloured.
+  /// around it, each weighted by its trilinear weight; when none of them is coloured, the nearest
+  /// coloured voxel of the 4^3 around it within sqrt(3.5) voxels; false when there is none.
   bool sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rgb8& out) const;
 
   /// The colour block of TSDF block `index`, or nullptr when it has none.

@@ -53,7 +53,8 @@ void fuse(Fused& f, const ColourCamera& camera, const Image<Rgb8>& image, int ma
   test::render(scene, kDepth, Pose::identity(), f.depth);
   f.integrator.integrate(f.volume, f.depth, kDepth, Pose::identity());
   f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
-                     image, camera, 0.5f * f.volume.truncation_m(), max_weight);
+                     image, camera, 2.0f * f.volume.voxel_size_m(),
+                     f.volume.truncation_m(), max_weight);
 }
 
 /// Every coloured voxel more than `margin` from the colour boundary x = 0 has the scene's colour.
@@ -130,21 +131,24 @@ TEST(ColourVolume, RunningMeanWithCappedWeight) {
   EXPECT_EQ(out, (Rgb8{100, 100, 100}));
   // Weight 1 and 1 more: the mean of the two.
   f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
-                     white, camera, 0.5f * f.volume.truncation_m(), 2);
+                     white, camera, 2.0f * f.volume.voxel_size_m(),
+                     f.volume.truncation_m(), 2);
   ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
   EXPECT_EQ(out, (Rgb8{150, 150, 150}));
   // The cap of 2: (150 * 2 + 200) / 3.
   f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
-                     white, camera, 0.5f * f.volume.truncation_m(), 2);
+                     white, camera, 2.0f * f.volume.voxel_size_m(),
+                     f.volume.truncation_m(), 2);
   ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
   EXPECT_EQ(out, (Rgb8{167, 167, 167}));
 }
 
-TEST(ColourVolume, OnlyVoxelsNearTheSurfaceTheFrameSawAreColoured) {
+TEST(ColourVolume, OnlyTheShellOfTheSurfaceIsColoured) {
   Fused f;
   const ColourCamera camera = ColourCamera::registered_to(kDepth);
   fuse(f, camera, render_colour(camera));
-  const float band = 0.5f * f.volume.truncation_m();
+  // The shell: 2 voxels either side of the plane (the fused TSDF of a frontal plane is exact).
+  const float band = 2.0f * f.volume.voxel_size_m();
   for (int i = 0; i < f.volume.block_count(); ++i) {
     const ColourBlock* cb = f.colour.block(i);
     if (cb == nullptr) continue;
@@ -185,18 +189,18 @@ TEST(ColourVolume, BadInputIsRefusedOrIgnored) {
   const std::size_t blocks = f.colour.block_count();
   const Image<Rgb8> small(320, 240);
   EXPECT_THROW(f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth,
-                                  Pose::identity(), small, camera, 0.01f, 16),
+                                  Pose::identity(), small, camera, 0.01f, 0.02f, 16),
                Error);
   const Image<float> small_depth(320, 240, 1.0f);
   EXPECT_THROW(f.colour.integrate(f.volume, f.integrator.updated_blocks(), small_depth, kDepth,
-                                  Pose::identity(), render_colour(camera), camera, 0.01f, 16),
+                                  Pose::identity(), render_colour(camera), camera, 0.01f, 0.02f, 16),
                Error);
   // A pose that is not finite changes nothing.
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const Pose bad(Eigen::Matrix3d::Identity(), Eigen::Vector3d(nan, 0.0, 0.0));
   const ColourIntegrateStats stats =
       f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, bad,
-                         render_colour(camera), camera, 0.01f, 16);
+                         render_colour(camera), camera, 0.01f, 0.02f, 16);
   EXPECT_EQ(stats.voxels_coloured, 0);
   EXPECT_EQ(f.colour.block_count(), blocks);
   f.colour.reset();
