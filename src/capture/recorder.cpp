@@ -53,7 +53,6 @@ RecordStats record_source(Source& source, const std::string& dir,
   // Colour, from the first frame that has it: rgb/ and rgb.txt, the colour camera in camera.json.
   const std::string colour_list_path = root + "/rgb.txt";
   std::optional<OutputFile> colour_list;
-  std::optional<ColourCamera> colour_camera;
   RecordStats stats;
   DepthFrame frame;
   std::string png_path;
@@ -99,41 +98,37 @@ RecordStats record_source(Source& source, const std::string& dir,
     std::uint64_t sequence = frame.sequence;
     if (last_sequence && sequence <= *last_sequence) sequence = *last_sequence + 1;
     last_sequence = sequence;
-    std::snprintf(name, sizeof name, "depth/%06llu.png", static_cast<unsigned long long>(sequence));
-    png_path.assign(root).append("/").append(name);
-    try {
-      write_depth_png(png_path, frame.depth);
-    } catch (const Error&) {
-      std::error_code ec;
-      fs::remove(png_path, ec);  // a partial PNG is never listed; do not leave it either
-      finish();
-      throw;
-    }
-    if (std::fprintf(list.get(), "%.6f %s\n", frame.timestamp_s, name) < 0 ||
-        std::fflush(list.get()) != 0)
-      throw_write_failed(list_path);
+    // Writes one image of this frame as FOLDER/NNNNNN.png and lists it with `timestamp_s`.
+    const auto write_listed = [&](const char* folder, const auto& write, std::FILE* to,
+                                  const std::string& to_path, double timestamp_s) {
+      std::snprintf(name, sizeof name, "%s/%06llu.png", folder,
+                    static_cast<unsigned long long>(sequence));
+      png_path.assign(root).append("/").append(name);
+      try {
+        write(png_path);
+      } catch (const Error&) {
+        std::error_code ec;
+        fs::remove(png_path, ec);  // a partial PNG is never listed; do not leave it either
+        finish();
+        throw;
+      }
+      if (std::fprintf(to, "%.6f %s\n", timestamp_s, name) < 0 || std::fflush(to) != 0)
+        throw_write_failed(to_path);
+    };
+    write_listed(
+        "depth", [&](const std::string& path) { write_depth_png(path, frame.depth); }, list.get(),
+        list_path, frame.timestamp_s);
     if (!frame.colour.empty() && frame.colour_camera) {
       if (!colour_list) {
-        colour_camera = frame.colour_camera;
-        write_camera_json(camera_path, calibration, depth_scale, &*colour_camera);
+        write_camera_json(camera_path, calibration, depth_scale, &*frame.colour_camera);
         require_writable_folder(root + "/rgb", root + "/rgb");
         colour_list.emplace(open_output(colour_list_path));
         std::fprintf(colour_list->get(), "# colour images recorded by aoscan from %s\n# timestamp "
                      "filename\n", one_line(source.name()).c_str());
       }
-      std::snprintf(name, sizeof name, "rgb/%06llu.png", static_cast<unsigned long long>(sequence));
-      png_path.assign(root).append("/").append(name);
-      try {
-        write_colour_png(png_path, frame.colour);
-      } catch (const Error&) {
-        std::error_code ec;
-        fs::remove(png_path, ec);
-        finish();
-        throw;
-      }
-      if (std::fprintf(colour_list->get(), "%.6f %s\n", frame.colour_timestamp_s, name) < 0 ||
-          std::fflush(colour_list->get()) != 0)
-        throw_write_failed(colour_list_path);
+      write_listed(
+          "rgb", [&](const std::string& path) { write_colour_png(path, frame.colour); },
+          colour_list->get(), colour_list_path, frame.colour_timestamp_s);
     }
     if (frame.T_world_camera_gt) {
       if (!ground_truth)

@@ -56,7 +56,11 @@ nlohmann::json GridStats::to_json() const {
 }
 
 nlohmann::json TsdfStats::to_json() const {
-  return {{"blocks", blocks}, {"memory_mb", memory_mb}, {"capacity_reached", capacity_reached}};
+  return {{"blocks", blocks},
+          {"memory_mb", memory_mb},
+          {"capacity_reached", capacity_reached},
+          {"colour_blocks", colour_blocks},
+          {"colour_memory_mb", colour_memory_mb}};
 }
 
 nlohmann::json VolumeStats::to_json() const {
@@ -253,8 +257,10 @@ TsdfStats Processing::tsdf_stats() const {
   // The integrator's per-block bookkeeping is part of what the volume costs.
   const TsdfVolume& volume = reconstruction_.volume();
   const std::size_t bytes = volume.memory_bytes() + reconstruction_.integrator().memory_bytes();
-  return {static_cast<std::size_t>(volume.block_count()),
-          static_cast<double>(bytes) / kBytesPerMb, volume.capacity_reached()};
+  const ColourVolume& colour = reconstruction_.colour();
+  return {static_cast<std::size_t>(volume.block_count()), static_cast<double>(bytes) / kBytesPerMb,
+          volume.capacity_reached(), colour.block_count(),
+          static_cast<double>(colour.memory_bytes()) / kBytesPerMb};
 }
 
 void Processing::write_trajectory_file(const std::string& path) const {

@@ -91,6 +91,8 @@ struct TsdfStats {
   std::size_t blocks = 0;
   double memory_mb = 0.0;
   bool capacity_reached = false;
+  std::size_t colour_blocks = 0;  ///< blocks with fused colour (ColourVolume)
+  double colour_memory_mb = 0.0;  ///< what the colour holds, beside memory_mb
   nlohmann::json to_json() const;
 };
 

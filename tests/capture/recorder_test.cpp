@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "capture/output_file.h"
+#include "capture/source.h"
 #include "capture/tum_source.h"
 #include "io/ply.h"
 #include "io/tum.h"
@@ -127,6 +128,35 @@ TEST(Recorder, RecordedFramesReadBackIdentical) {
   const TriangleMesh scene = read_ply(dir + "/scene.ply");
   EXPECT_EQ(scene.vertices, source.scene_mesh()->vertices);
   EXPECT_EQ(scene.faces, source.scene_mesh()->faces);
+}
+
+TEST(Recorder, ColourIsRecordedAndReadsBackIdentical) {
+  ScratchDir scratch;
+  const std::string dir = scratch.file("colour");
+  const std::string spec = "synth:corner?frames=3&width=32&height=24&colour=on";
+  const std::unique_ptr<Source> source = open_source(spec);
+  EXPECT_EQ(record_source(*source, dir, std::nullopt, nullptr).frames_written, 3u);
+  const std::string list = read_bytes(dir + "/rgb.txt");
+  EXPECT_NE(list.find("0.033333 rgb/000001.png\n"), std::string::npos) << list;
+  // The recording's frames carry the same colour and a registered colour camera.
+  const std::unique_ptr<Source> again = open_source(spec);
+  const auto recording = open_tum_folder(dir);
+  EXPECT_EQ(recording->colour_origin(), dir + "/camera.json");
+  DepthFrame original, read;
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(again->read(original).is_ok());
+    ASSERT_TRUE(recording->read(read).is_ok());
+    ASSERT_TRUE(read.colour_camera.has_value());
+    EXPECT_TRUE(read.colour_camera->registered);
+    EXPECT_EQ(read.colour_error, "");
+    ASSERT_EQ(read.colour.width(), 32);
+    for (std::size_t p = 0; p < read.colour.size(); ++p)
+      ASSERT_EQ(read.colour.data()[p], original.colour.data()[p]) << "frame " << i;
+  }
+  // A source without colour records none.
+  const std::unique_ptr<Source> plain = open_source("synth:corner?frames=1&width=32&height=24");
+  record_source(*plain, scratch.file("plain"), std::nullopt, nullptr);
+  EXPECT_FALSE(std::filesystem::exists(scratch.file("plain") + "/rgb.txt"));
 }
 
 TEST(Recorder, IdenticalRunsGiveIdenticalFiles) {

@@ -257,6 +257,47 @@ TEST(SynthRender, ExactFramesBackProjectOntoTheSurfaceAndCoverTheCorner) {
   }
 }
 
+TEST(SynthRender, ColourIsThePrimitiveEachPixelSees) {
+  const AnalyticScene scene = AnalyticScene::make("corner");
+  const Intrinsics k = synth_intrinsics(160, 120);
+  const Pose pose = synth_camera_pose("corner", SynthTrajectory::kOrbit, 1, 3.0);
+  Image<std::uint16_t> depth;
+  Image<Rgb8> colour;
+  render_synth_depth(scene, k, pose, SynthRenderOptions{}, depth);
+  render_synth_colour(scene, k, pose, colour);
+  ASSERT_EQ(colour.width(), 160);
+  int checked = 0, other = 0;
+  for (int v = 0; v < k.height; ++v)
+    for (int u = 0; u < k.width; ++u) {
+      const double z = depth(u, v) / kSynthDepthScale;
+      if (z == 0.0) {
+        EXPECT_EQ(colour(u, v), Rgb8{});
+        continue;
+      }
+      const Eigen::Vector3d p = pose.rotation() * k.unproject(u, v, z) + pose.translation();
+      const auto s = scene.nearest_surface_point(p, 0.001);
+      ASSERT_TRUE(s.has_value());
+      ++checked;
+      // At an edge the nearest point may be the touching primitive's.
+      other += colour(u, v) != scene.colour(s->primitive);
+    }
+  EXPECT_GT(checked, 15000);
+  EXPECT_LE(other, checked / 200);
+  // Neighbouring primitives differ in colour, and colour=on delivers it registered.
+  EXPECT_NE(scene.colour(0), scene.colour(1));
+  DepthFrame frame;
+  render_synth_frame(scene, parse_synth_spec("synth:corner?colour=on&width=160&height=120"), 90,
+                     frame);
+  ASSERT_TRUE(frame.colour_camera.has_value());
+  EXPECT_TRUE(frame.colour_camera->registered);
+  EXPECT_EQ(frame.colour(40, 50), colour(40, 50));
+  render_synth_frame(scene, parse_synth_spec("synth:corner?colour=off&width=160&height=120"), 90,
+                     frame);
+  EXPECT_TRUE(frame.colour.empty());
+  EXPECT_FALSE(frame.colour_camera.has_value());
+  EXPECT_THROW(parse_synth_spec("synth:corner?colour=yes"), Error);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Kinect v1 noise
 
