@@ -86,8 +86,8 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
   const float cap = static_cast<float>(std::clamp(max_weight, 1, 255));
   const int width = depth_m.width(), height = depth_m.height();
 
-  std::vector<int> coloured(blocks.size(), 0);
-  std::vector<unsigned char> fresh(blocks.size(), 0);
+  coloured_.assign(blocks.size(), 0);
+  fresh_.assign(blocks.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 8),
                     [&](const tbb::blocked_range<std::size_t>& range) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
@@ -126,7 +126,7 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
             if (cb == nullptr) {
               blocks_[static_cast<std::size_t>(index)] = std::make_unique<ColourBlock>();
               cb = blocks_[static_cast<std::size_t>(index)].get();
-              fresh[k] = 1;
+              fresh_[k] = 1;
             }
             ColourVoxel& c = cb->voxels[static_cast<std::size_t>(vi)];
             const float w = c.weight;
@@ -136,15 +136,26 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
             c.weight = static_cast<std::uint8_t>(std::min(w + 1.0f, cap));
             ++n;
           }
-      coloured[k] = n;
+      coloured_[k] = n;
     }
   });
   for (std::size_t k = 0; k < blocks.size(); ++k) {
-    stats.voxels_coloured += coloured[k];
-    stats.blocks_allocated += fresh[k];
+    stats.voxels_coloured += coloured_[k];
+    stats.blocks_allocated += fresh_[k];
   }
   allocated_ += static_cast<std::size_t>(stats.blocks_allocated);
   return stats;
+}
+
+const ColourVoxel* ColourVolume::coloured_voxel(const TsdfVolume& volume,
+                                                const Eigen::Vector3i& voxel) const {
+  // Shifts and masks are floor division and remainder by kBlockSize for negative voxels too.
+  const ColourBlock* cb =
+      block(volume.find_block({voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3}));
+  if (cb == nullptr) return nullptr;
+  const ColourVoxel& c =
+      cb->voxels[static_cast<std::size_t>(voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
+  return c.weight > 0 ? &c : nullptr;
 }
 
 bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rgb8& out) const {
@@ -155,17 +166,12 @@ bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rg
   float sum[3] = {0.0f, 0.0f, 0.0f}, weight = 0.0f;
   for (int corner = 0; corner < 8; ++corner) {
     const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-    const Eigen::Vector3i voxel(x0 + dx, y0 + dy, z0 + dz);
-    const Eigen::Vector3i b(voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3);  // floor division
-    const ColourBlock* cb = block(volume.find_block(b));
-    if (cb == nullptr) continue;
-    const ColourVoxel& c = cb->voxels[static_cast<std::size_t>(
-        voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
-    if (c.weight == 0) continue;
+    const ColourVoxel* c = coloured_voxel(volume, {x0 + dx, y0 + dy, z0 + dz});
+    if (c == nullptr) continue;
     const float w = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy) * (dz ? fz : 1.0f - fz);
-    sum[0] += w * c.r;
-    sum[1] += w * c.g;
-    sum[2] += w * c.b;
+    sum[0] += w * c->r;
+    sum[1] += w * c->g;
+    sum[2] += w * c->b;
     weight += w;
   }
   if (weight > 1e-6f) {
@@ -181,14 +187,10 @@ bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rg
         const Eigen::Vector3i voxel(x0 + dx, y0 + dy, z0 + dz);
         const float d2 = (voxel.cast<float>() - g).squaredNorm();
         if (d2 >= best) continue;
-        const ColourBlock* cb =
-            block(volume.find_block(Eigen::Vector3i(voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3)));
-        if (cb == nullptr) continue;
-        const ColourVoxel& c = cb->voxels[static_cast<std::size_t>(
-            voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
-        if (c.weight == 0) continue;
+        const ColourVoxel* c = coloured_voxel(volume, voxel);
+        if (c == nullptr) continue;
         best = d2;
-        out = {c.r, c.g, c.b};
+        out = {c->r, c->g, c->b};
       }
   return best < 3.5f;
 }

@@ -83,8 +83,14 @@ class ColourVolume {
   }
 
  private:
+  /// The coloured voxel at global voxel coordinates, or nullptr (no colour block, weight 0).
+  const ColourVoxel* coloured_voxel(const TsdfVolume& volume, const Eigen::Vector3i& voxel) const;
+
   std::vector<std::unique_ptr<ColourBlock>> blocks_;  ///< by TSDF block index
   std::size_t allocated_ = 0;
+  // Per-call scratch of integrate(), reused: voxels coloured and new colour blocks per block.
+  std::vector<int> coloured_;
+  std::vector<unsigned char> fresh_;
 };
 
 }  // namespace aoscan
