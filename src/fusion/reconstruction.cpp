@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <optional>
 
 #include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
@@ -103,15 +104,20 @@ FusionStep Reconstruction::process(const PreprocessedFrame& frame, const Intrins
     return step;
   }
   if (integrate || step.new_model) {
-    step.integrate =
-        integrator_.integrate(volume_, frame.depth_m, intrinsics, step.T_world_camera);
+    // The colour is fused block by block inside the depth integration, while each block's
+    // voxels and the depth pixels they project to are in the cache.
+    std::optional<ColourIntegration> colour_frame;
+    if (colour != nullptr && !colour->image.empty() && config_.fusion.colour == ColourFusion::kOn)
+      colour_frame.emplace(colour_, ColourFrameInput{&frame.depth_m, intrinsics,
+                                                     step.T_world_camera, &colour->image,
+                                                     colour->camera,
+                                                     kColourShellVoxels * volume_.voxel_size_m(),
+                                                     volume_.truncation_m(),
+                                                     config_.fusion.colour_max_weight});
+    step.integrate = integrator_.integrate(volume_, frame.depth_m, intrinsics, step.T_world_camera,
+                                           colour_frame ? &*colour_frame : nullptr);
     step.integrated = true;
-    if (colour != nullptr && !colour->image.empty() &&
-        config_.fusion.colour == ColourFusion::kOn)
-      step.colour = colour_.integrate(volume_, integrator_.updated_blocks(), frame.depth_m,
-                                      intrinsics, step.T_world_camera, colour->image,
-                                      colour->camera, kColourShellVoxels * volume_.voxel_size_m(),
-                                      volume_.truncation_m(), config_.fusion.colour_max_weight);
+    if (colour_frame) step.colour = colour_frame->finish();
   }
   if (step.new_model && volume_.block_count() == 0) {
     // Nothing fused (no valid depth): nothing to track the next frame against. The model starts

@@ -4,6 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+
+#if defined(__SSE__) || defined(__x86_64__)
+#include <xmmintrin.h>
+#endif
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -33,8 +38,15 @@ bool bilinear(const Image<Rgb8>& image, float u, float v, float rgb[3]) {
   return true;
 }
 
+/// v rounded to the nearest integer (ties to even, as std::lrint in the default rounding mode)
+/// and clamped to a byte. On x86 one instruction: std::lrint is a library call there.
 std::uint8_t to_byte(float v) {
-  return static_cast<std::uint8_t>(std::clamp(std::lrint(v), 0L, 255L));
+#if defined(__SSE__) || defined(__x86_64__)
+  const long rounded = _mm_cvtss_si32(_mm_set_ss(v));
+#else
+  const long rounded = std::lrint(v);
+#endif
+  return static_cast<std::uint8_t>(std::clamp(rounded, 0L, 255L));
 }
 
 }  // namespace
@@ -51,6 +63,127 @@ ColourBlock& ColourVolume::allocate(int index) {
   return *b;
 }
 
+ColourIntegration::ColourIntegration(ColourVolume& colour, const ColourFrameInput& input)
+    : colour_(colour),
+      depth_m_(*input.depth_m),
+      image_(*input.colour),
+      registered_(input.camera.registered) {
+  const Intrinsics& kd = input.depth_intrinsics;
+  const Intrinsics& kc = input.camera.intrinsics;
+  if (depth_m_.width() != kd.width || depth_m_.height() != kd.height)
+    throw usage_error("colour integration: the depth differs in size from its intrinsics");
+  if (image_.width() != kc.width || image_.height() != kc.height)
+    throw usage_error("colour integration: the colour image differs in size from its camera");
+  if (registered_ && (image_.width() != depth_m_.width() || image_.height() != depth_m_.height()))
+    throw usage_error("colour integration: registered colour differs in size from the depth");
+  const Pose T_camera_world = input.T_world_camera.inverse();
+  R_ = T_camera_world.rotation().cast<float>();
+  t_ = T_camera_world.translation().cast<float>();
+  Rc_ = input.camera.T_colour_depth.rotation().cast<float>();
+  tc_ = input.camera.T_colour_depth.translation().cast<float>();
+  fx_ = static_cast<float>(kd.fx);
+  fy_ = static_cast<float>(kd.fy);
+  cx_ = static_cast<float>(kd.cx);
+  cy_ = static_cast<float>(kd.cy);
+  cfx_ = static_cast<float>(kc.fx);
+  cfy_ = static_cast<float>(kc.fy);
+  ccx_ = static_cast<float>(kc.cx);
+  ccy_ = static_cast<float>(kc.cy);
+  band_m_ = input.band_m;
+  shell_m_ = input.shell_m;
+  cap_ = static_cast<float>(std::clamp(input.max_weight, 1, 255));
+}
+
+void ColourIntegration::begin(const TsdfVolume& volume, const std::vector<int>& blocks) {
+  blocks_ = &blocks;
+  voxel_m_ = volume.voxel_size_m();
+  // Voxels whose fused TSDF puts them outside the shell are not looked at. The test on the
+  // quantised TSDF: |tsdf_q| <= shell_q_ exactly when |tsdf()| <= shell_tsdf (tsdf() is tsdf_q
+  // times a positive step, monotone in tsdf_q).
+  const float shell_tsdf = shell_m_ / volume.truncation_m();
+  shell_q_ = -1;
+  if (shell_tsdf >= 0.0f) {
+    shell_q_ = static_cast<int>(std::min(shell_tsdf, 1.0f) * Voxel::kTsdfScale);
+    while (shell_q_ < 32767 && static_cast<float>(shell_q_ + 1) * Voxel::kTsdfStep <= shell_tsdf)
+      ++shell_q_;
+    while (shell_q_ >= 0 && static_cast<float>(shell_q_) * Voxel::kTsdfStep > shell_tsdf)
+      --shell_q_;
+  }
+  if (colour_.blocks_.size() < static_cast<std::size_t>(volume.block_count()))
+    colour_.blocks_.resize(static_cast<std::size_t>(volume.block_count()));
+  colour_.coloured_.assign(blocks.size(), 0);
+  colour_.fresh_.assign(blocks.size(), 0);
+}
+
+void ColourIntegration::visit(const TsdfVolume& volume, std::size_t position) {
+  const int index = (*blocks_)[position];
+  const VoxelBlock& tsdf = volume.block(index);
+  // Most voxels of an updated block lie outside the shell (or were never seen): a branch-free
+  // first pass flags the shell's voxels, so that only those are projected.
+  alignas(8) std::array<std::uint8_t, kBlockVoxels> in_shell;
+  for (int vi = 0; vi < kBlockVoxels; ++vi) {
+    const Voxel& voxel = tsdf.voxels[static_cast<std::size_t>(vi)];
+    in_shell[static_cast<std::size_t>(vi)] = static_cast<std::uint8_t>(
+        (voxel.count != 0) & (voxel.tsdf_q >= -shell_q_) & (voxel.tsdf_q <= shell_q_));
+  }
+  std::unique_ptr<ColourBlock>& slot = colour_.blocks_[static_cast<std::size_t>(index)];
+  const Eigen::Vector3i origin = volume.block_coord(index) * kBlockSize;
+  const int width = depth_m_.width(), height = depth_m_.height();
+  int n = 0;
+  for (int word = 0; word < kBlockVoxels / 8; ++word) {
+    std::uint64_t flags;
+    std::memcpy(&flags, in_shell.data() + 8 * word, sizeof(flags));
+    for (; flags != 0; flags &= flags - 1) {
+      const int vi = 8 * word + __builtin_ctzll(flags) / 8;
+      const Eigen::Vector3f world =
+          (origin + Eigen::Vector3i(vi & 7, (vi >> 3) & 7, vi >> 6)).cast<float>() * voxel_m_;
+      const Eigen::Vector3f p = R_ * world + t_;
+      if (!(p.z() > 0.0f)) continue;
+      const int u = floor_to_int(fx_ * p.x() / p.z() + cx_ + 0.5f);
+      const int v = floor_to_int(fy_ * p.y() / p.z() + cy_ + 0.5f);
+      if (u < 0 || v < 0 || u >= width || v >= height) continue;
+      const float d = depth_m_(u, v);
+      if (!(d > 0.0f) || std::abs(d - p.z()) > band_m_) continue;
+      float rgb[3];
+      if (registered_) {
+        const Rgb8& c = image_(u, v);
+        rgb[0] = c.r;
+        rgb[1] = c.g;
+        rgb[2] = c.b;
+      } else {
+        const Eigen::Vector3f q = Rc_ * p + tc_;
+        if (!(q.z() > 0.0f) ||
+            !bilinear(image_, cfx_ * q.x() / q.z() + ccx_, cfy_ * q.y() / q.z() + ccy_, rgb))
+          continue;
+      }
+      if (slot == nullptr) {
+        slot = std::make_unique<ColourBlock>();
+        colour_.fresh_[position] = 1;
+      }
+      ColourVoxel& c = slot->voxels[static_cast<std::size_t>(vi)];
+      const float w = c.weight;
+      c.r = to_byte((c.r * w + rgb[0]) / (w + 1.0f));
+      c.g = to_byte((c.g * w + rgb[1]) / (w + 1.0f));
+      c.b = to_byte((c.b * w + rgb[2]) / (w + 1.0f));
+      c.weight = static_cast<std::uint8_t>(std::min(w + 1.0f, cap_));
+      ++n;
+    }
+  }
+  colour_.coloured_[position] = n;
+}
+
+ColourIntegrateStats ColourIntegration::finish() {
+  ColourIntegrateStats stats;
+  if (blocks_ == nullptr) return stats;  // no begin(): the depth frame was not integrated
+  blocks_ = nullptr;
+  for (std::size_t k = 0; k < colour_.coloured_.size(); ++k) {
+    stats.voxels_coloured += colour_.coloured_[k];
+    stats.blocks_allocated += colour_.fresh_[k];
+  }
+  colour_.allocated_ += static_cast<std::size_t>(stats.blocks_allocated);
+  return stats;
+}
+
 ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
                                              const std::vector<int>& blocks,
                                              const Image<float>& depth_m,
@@ -58,93 +191,16 @@ ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
                                              const Pose& T_world_camera,
                                              const Image<Rgb8>& colour, const ColourCamera& camera,
                                              float shell_m, float band_m, int max_weight) {
-  ColourIntegrateStats stats;
-  if (depth_m.width() != depth_intrinsics.width || depth_m.height() != depth_intrinsics.height)
-    throw usage_error("colour integration: the depth differs in size from its intrinsics");
-  if (colour.width() != camera.intrinsics.width || colour.height() != camera.intrinsics.height)
-    throw usage_error("colour integration: the colour image differs in size from its camera");
-  if (camera.registered &&
-      (colour.width() != depth_m.width() || colour.height() != depth_m.height()))
-    throw usage_error("colour integration: registered colour differs in size from the depth");
-  if (!T_world_camera.finite() || blocks.empty() || colour.empty()) return stats;
-  if (blocks_.size() < static_cast<std::size_t>(volume.block_count()))
-    blocks_.resize(static_cast<std::size_t>(volume.block_count()));
-
-  const Pose T_camera_world = T_world_camera.inverse();
-  const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
-  const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
-  const Eigen::Matrix3f Rc = camera.T_colour_depth.rotation().cast<float>();
-  const Eigen::Vector3f tc = camera.T_colour_depth.translation().cast<float>();
-  const float fx = static_cast<float>(depth_intrinsics.fx), fy = static_cast<float>(depth_intrinsics.fy);
-  const float cx = static_cast<float>(depth_intrinsics.cx), cy = static_cast<float>(depth_intrinsics.cy);
-  const Intrinsics& kc = camera.intrinsics;
-  const float cfx = static_cast<float>(kc.fx), cfy = static_cast<float>(kc.fy);
-  const float ccx = static_cast<float>(kc.cx), ccy = static_cast<float>(kc.cy);
-  const float vs = volume.voxel_size_m();
-  // Voxels whose fused TSDF puts them outside the shell are not looked at.
-  const float shell_tsdf = shell_m / volume.truncation_m();
-  const float cap = static_cast<float>(std::clamp(max_weight, 1, 255));
-  const int width = depth_m.width(), height = depth_m.height();
-
-  coloured_.assign(blocks.size(), 0);
-  fresh_.assign(blocks.size(), 0);
+  ColourIntegration frame(*this, {&depth_m, depth_intrinsics, T_world_camera, &colour, camera,
+                                  shell_m, band_m, max_weight});
+  if (!T_world_camera.finite() || blocks.empty() || colour.empty()) return {};
+  frame.begin(volume, blocks);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 8),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const int index = blocks[k];
-      const VoxelBlock& tsdf = volume.block(index);
-      ColourBlock* cb = blocks_[static_cast<std::size_t>(index)].get();
-      const Eigen::Vector3i origin = volume.block_coord(index) * kBlockSize;
-      int n = 0;
-      for (int z = 0; z < kBlockSize; ++z)
-        for (int y = 0; y < kBlockSize; ++y)
-          for (int x = 0; x < kBlockSize; ++x) {
-            const int vi = voxel_index(x, y, z);
-            const Voxel& voxel = tsdf.voxels[static_cast<std::size_t>(vi)];
-            if (voxel.count == 0 || std::abs(voxel.tsdf()) > shell_tsdf) continue;
-            const Eigen::Vector3f world =
-                (origin + Eigen::Vector3i(x, y, z)).cast<float>() * vs;
-            const Eigen::Vector3f p = R * world + t;
-            if (!(p.z() > 0.0f)) continue;
-            const int u = floor_to_int(fx * p.x() / p.z() + cx + 0.5f);
-            const int v = floor_to_int(fy * p.y() / p.z() + cy + 0.5f);
-            if (u < 0 || v < 0 || u >= width || v >= height) continue;
-            const float d = depth_m(u, v);
-            if (!(d > 0.0f) || std::abs(d - p.z()) > band_m) continue;
-            float rgb[3];
-            if (camera.registered) {
-              const Rgb8& c = colour(u, v);
-              rgb[0] = c.r;
-              rgb[1] = c.g;
-              rgb[2] = c.b;
-            } else {
-              const Eigen::Vector3f q = Rc * p + tc;
-              if (!(q.z() > 0.0f) ||
-                  !bilinear(colour, cfx * q.x() / q.z() + ccx, cfy * q.y() / q.z() + ccy, rgb))
-                continue;
-            }
-            if (cb == nullptr) {
-              blocks_[static_cast<std::size_t>(index)] = std::make_unique<ColourBlock>();
-              cb = blocks_[static_cast<std::size_t>(index)].get();
-              fresh_[k] = 1;
-            }
-            ColourVoxel& c = cb->voxels[static_cast<std::size_t>(vi)];
-            const float w = c.weight;
-            c.r = to_byte((c.r * w + rgb[0]) / (w + 1.0f));
-            c.g = to_byte((c.g * w + rgb[1]) / (w + 1.0f));
-            c.b = to_byte((c.b * w + rgb[2]) / (w + 1.0f));
-            c.weight = static_cast<std::uint8_t>(std::min(w + 1.0f, cap));
-            ++n;
-          }
-      coloured_[k] = n;
-    }
-  });
-  for (std::size_t k = 0; k < blocks.size(); ++k) {
-    stats.voxels_coloured += coloured_[k];
-    stats.blocks_allocated += fresh_[k];
-  }
-  allocated_ += static_cast<std::size_t>(stats.blocks_allocated);
-  return stats;
+                      for (std::size_t k = range.begin(); k != range.end(); ++k)
+                        frame.visit(volume, k);
+                    });
+  return frame.finish();
 }
 
 const ColourVoxel* ColourVolume::coloured_voxel(const TsdfVolume& volume,

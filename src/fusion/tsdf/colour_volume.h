@@ -15,6 +15,7 @@
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/pose.h"
+#include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
 
 namespace aoscan {
@@ -36,6 +37,51 @@ struct ColourBlock {
 struct ColourIntegrateStats {
   int voxels_coloured = 0;   ///< voxels that took a colour sample
   int blocks_allocated = 0;  ///< colour blocks newly allocated
+};
+
+class ColourVolume;
+
+/// What a colour frame is fused with: the colour image seen by `camera` (the colour camera of
+/// the depth camera at T_world_camera), the depth frame (size = depth_intrinsics), the shell and
+/// band of ColourVolume::integrate() and the weight cap.
+struct ColourFrameInput {
+  const Image<float>* depth_m = nullptr;
+  Intrinsics depth_intrinsics;
+  Pose T_world_camera;
+  const Image<Rgb8>* colour = nullptr;
+  ColourCamera camera;
+  float shell_m = 0.0f;
+  float band_m = 0.0f;
+  int max_weight = 1;
+};
+
+/// One frame's colour integration into a ColourVolume, block by block. As the BlockVisitor of
+/// TsdfIntegrator::integrate() it colours each block right after the block's depth update, while
+/// its voxels and the depth pixels they project to are still in the cache; the result is the same
+/// as ColourVolume::integrate() over the updated blocks afterwards.
+class ColourIntegration final : public BlockVisitor {
+ public:
+  /// Throws usage_error when the colour image's size differs from the camera's or the depth's
+  /// from its intrinsics (before any block is touched). The inputs must outlive the object.
+  ColourIntegration(ColourVolume& colour, const ColourFrameInput& input);
+
+  void begin(const TsdfVolume& volume, const std::vector<int>& blocks) override;
+  void visit(const TsdfVolume& volume, std::size_t position) override;
+  /// What the blocks visited since begin() did (nothing when begin() was not called: the
+  /// depth frame was not integrated); call after the last visit().
+  ColourIntegrateStats finish();
+
+ private:
+  ColourVolume& colour_;
+  const Image<float>& depth_m_;
+  const Image<Rgb8>& image_;
+  bool registered_;
+  const std::vector<int>* blocks_ = nullptr;
+  Eigen::Matrix3f R_, Rc_;
+  Eigen::Vector3f t_, tc_;
+  float fx_, fy_, cx_, cy_, cfx_, cfy_, ccx_, ccy_;
+  float voxel_m_ = 0.0f, band_m_, shell_m_, cap_;
+  int shell_q_ = -1;  ///< |tsdf_q| <= shell_q_: the voxel lies in the shell
 };
 
 /// Colour of a TsdfVolume's voxels. One writer (integrate(), reset()), any number of readers
@@ -83,12 +129,14 @@ class ColourVolume {
   }
 
  private:
+  friend class ColourIntegration;
   /// The coloured voxel at global voxel coordinates, or nullptr (no colour block, weight 0).
   const ColourVoxel* coloured_voxel(const TsdfVolume& volume, const Eigen::Vector3i& voxel) const;
 
   std::vector<std::unique_ptr<ColourBlock>> blocks_;  ///< by TSDF block index
   std::size_t allocated_ = 0;
-  // Per-call scratch of integrate(), reused: voxels coloured and new colour blocks per block.
+  // Per-frame scratch of ColourIntegration, reused: voxels coloured and new colour blocks per
+  // block.
   std::vector<int> coloured_;
   std::vector<unsigned char> fresh_;
 };

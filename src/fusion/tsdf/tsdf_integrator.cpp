@@ -303,33 +303,37 @@ void TsdfIntegrator::merge_chunks(TsdfVolume& volume, IntegrateStats& stats) {
 
 IntegrateStats TsdfIntegrator::integrate(TsdfVolume& volume, const Image<float>& depth_m,
                                          const Intrinsics& intrinsics,
-                                         const Pose& T_world_camera) {
+                                         const Pose& T_world_camera, BlockVisitor* visitor) {
   // The one dispatch of the AVX2 kernels: the band set-up and the voxel update.
 #if AOSCAN_TSDF_X86
-  return integrate_fast(volume, depth_m, intrinsics, T_world_camera, cpu_has_avx2());
+  return integrate_fast(volume, depth_m, intrinsics, T_world_camera, cpu_has_avx2(), visitor);
 #else
-  return integrate_fast(volume, depth_m, intrinsics, T_world_camera, false);
+  return integrate_fast(volume, depth_m, intrinsics, T_world_camera, false, visitor);
 #endif
 }
 
 IntegrateStats TsdfIntegrator::integrate_portable(TsdfVolume& volume, const Image<float>& depth_m,
                                                   const Intrinsics& intrinsics,
                                                   const Pose& T_world_camera) {
-  return integrate_fast(volume, depth_m, intrinsics, T_world_camera, false);
+  return integrate_fast(volume, depth_m, intrinsics, T_world_camera, false, nullptr);
 }
 
 IntegrateStats TsdfIntegrator::integrate_fast(TsdfVolume& volume, const Image<float>& depth_m,
                                               const Intrinsics& intrinsics,
-                                              const Pose& T_world_camera, bool simd) {
+                                              const Pose& T_world_camera, bool simd,
+                                              BlockVisitor* visitor) {
   IntegrateStats stats = allocate_band(volume, depth_m, intrinsics, T_world_camera, simd);
   if (stats.skipped) return stats;
+  if (visitor != nullptr) visitor->begin(volume, visible_);
   const Pose T_camera_world = T_world_camera.inverse();
   const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
   const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visible_.size(), 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t i = range.begin(); i != range.end(); ++i)
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
                         update_block_fast(volume, visible_[i], depth_m, intrinsics, R, t, simd);
+                        if (visitor != nullptr) visitor->visit(volume, i);
+                      }
                     });
   return stats;
 }

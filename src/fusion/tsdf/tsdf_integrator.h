@@ -25,6 +25,18 @@ struct IntegrateStats {
   bool skipped = false;      ///< true when the pose was not finite: nothing was done
 };
 
+/// Work on each block of a frame while its voxels are in the cache: TsdfIntegrator::integrate()
+/// calls begin() once the frame's blocks are allocated, then visit() for each block right after
+/// its voxels were updated, on the thread that updated them (different blocks concurrently).
+class BlockVisitor {
+ public:
+  virtual ~BlockVisitor() = default;
+  /// `blocks`: the blocks that will be updated (TsdfIntegrator::updated_blocks()), none yet.
+  virtual void begin(const TsdfVolume& volume, const std::vector<int>& blocks) = 0;
+  /// Block blocks[position] (as given to begin()) holds this frame's fused voxels.
+  virtual void visit(const TsdfVolume& volume, std::size_t position) = 0;
+};
+
 /// Fuses depth frames into a TsdfVolume (its voxel size, truncation and weight cap). Holds only
 /// per-frame scratch and per-block bookkeeping, so one integrator can serve any volume; the
 /// volume keeps the fused state. Not thread-safe: one integrate() at a time, and the volume's
@@ -38,8 +50,10 @@ class TsdfIntegrator {
   /// running average, weight capped). Multi-threaded over blocks through TBB; the result does not
   /// depend on the thread count. The voxel update runs one voxel row per AVX2 vector when the CPU
   /// has AVX2. Throws usage_error when the depth size differs from the intrinsics.
+  /// `visitor` (optional) sees each updated block right after its update (BlockVisitor).
   IntegrateStats integrate(TsdfVolume& volume, const Image<float>& depth_m,
-                           const Intrinsics& intrinsics, const Pose& T_world_camera);
+                           const Intrinsics& intrinsics, const Pose& T_world_camera,
+                           BlockVisitor* visitor = nullptr);
   /// integrate() without SIMD (the portable C++ voxel update): bit for bit the same volume as
   /// integrate() on any CPU (the AVX2 update performs the same float operations in the same
   /// order). For tests and CPUs without AVX2.
@@ -67,7 +81,7 @@ class TsdfIntegrator {
   /// integrate() with the AVX2 voxel update (`simd`) or the portable one.
   IntegrateStats integrate_fast(TsdfVolume& volume, const Image<float>& depth_m,
                                 const Intrinsics& intrinsics, const Pose& T_world_camera,
-                                bool simd);
+                                bool simd, BlockVisitor* visitor);
 
   /// Per block index of the volume: the integrate() call that last listed the block in
   /// visible_. Grown as the volume's blocks appear; entries of a volume that was reset are
