@@ -171,10 +171,10 @@ RelocalisationResult Reconstruction::relocalise(const PreprocessedFrame& frame,
                                  icp_workspace_);
 }
 
-void Reconstruction::restore(const std::function<void(TsdfVolume&)>& fill_volume,
+void Reconstruction::restore(const std::function<void(TsdfVolume&, ColourVolume&)>& fill_volume,
                              std::vector<Keyframe> keyframes) {
   reset();
-  fill_volume(volume_);
+  fill_volume(volume_, colour_);
   for (Keyframe& k : keyframes) relocaliser_.database().add(std::move(k));
   lost_ = true;
 }

@@ -72,11 +72,11 @@ class Reconstruction {
   /// was. For measuring relocalisation.
   RelocalisationResult relocalise(const PreprocessedFrame& frame, const Intrinsics& intrinsics);
 
-  /// Continues a saved take: the model restarts empty, `fill_volume` writes the saved TSDF into
-  /// the volume, `keyframes` become the keyframe database, and the take starts lost: nothing is
+  /// Continues a saved take: the model restarts empty, `fill_volume` writes the saved TSDF (and
+  /// its colour, if any) into the volume and its colour, `keyframes` become the keyframe database, and the take starts lost: nothing is
   /// fused until a frame is relocalised against those keyframes, in the saved world frame.
   /// Throws what fill_volume throws, and usage_error for keyframes that do not fit the ferns.
-  void restore(const std::function<void(TsdfVolume&)>& fill_volume,
+  void restore(const std::function<void(TsdfVolume&, ColourVolume&)>& fill_volume,
                std::vector<Keyframe> keyframes);
 
   /// Starts a new model: empty TSDF, identity pose for the next frame.

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <tuple>
 
 #include <openvdb/io/File.h>
@@ -22,10 +23,13 @@ namespace aoscan {
 namespace {
 
 using FloatLeaf = openvdb::FloatTree::LeafNodeType;
+using ColourLeaf = openvdb::Vec3STree::LeafNodeType;
 static_assert(FloatLeaf::DIM == kBrickSize, "a brick must be exactly one OpenVDB leaf");
 
 constexpr const char* kTsdfGrid = "tsdf";
 constexpr const char* kWeightGrid = "weight";
+constexpr const char* kColourGrid = "Cd";
+constexpr const char* kColourWeightGrid = "colour_weight";
 constexpr const char* kTruncationMeta = "truncation_m";
 
 /// OpenVDB's file header: magic (8 bytes), file version, library major and minor (4 each), the
@@ -102,6 +106,12 @@ VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume
   tsdf->setGridClass(openvdb::GRID_LEVEL_SET);
   weight->setGridClass(openvdb::GRID_UNKNOWN);
   tsdf->insertMeta(kTruncationMeta, openvdb::FloatMetadata(truncation));
+  openvdb::Vec3SGrid::Ptr colour = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  openvdb::FloatGrid::Ptr colour_weight = openvdb::FloatGrid::create(0.0f);
+  colour->setTransform(transform);
+  colour_weight->setTransform(transform);
+  colour->setName(kColourGrid);
+  colour_weight->setName(kColourWeightGrid);
 
   // Each brick becomes one leaf of each grid, built directly (no per-voxel tree descent).
   VdbWriteStats stats;
@@ -116,6 +126,8 @@ VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume
       throw usage_error(path + ": two bricks share an origin");
     auto tsdf_leaf = std::make_unique<FloatLeaf>(origin, truncation, false);
     auto weight_leaf = std::make_unique<FloatLeaf>(origin, 0.0f, false);
+    std::unique_ptr<ColourLeaf> colour_leaf;
+    std::unique_ptr<FloatLeaf> colour_weight_leaf;
     std::size_t active = 0;
     for (int z = 0; z < kBrickSize; ++z) {
       for (int y = 0; y < kBrickSize; ++y) {
@@ -127,12 +139,24 @@ VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume
           tsdf_leaf->setValueOn(dst, d);
           weight_leaf->setValueOn(dst, w);
           ++active;
+          if (!volume.has_colour || brick.colour_weight[src] == 0) continue;
+          if (!colour_leaf) {
+            colour_leaf = std::make_unique<ColourLeaf>(origin, openvdb::Vec3s(0.0f), false);
+            colour_weight_leaf = std::make_unique<FloatLeaf>(origin, 0.0f, false);
+          }
+          const Rgb8& c = brick.colour[src];
+          colour_leaf->setValueOn(dst, openvdb::Vec3s(c.r / 255.0f, c.g / 255.0f, c.b / 255.0f));
+          colour_weight_leaf->setValueOn(dst, brick.colour_weight[src]);
         }
       }
     }
     if (active == 0) continue;
     tsdf->tree().addLeaf(tsdf_leaf.release());
     weight->tree().addLeaf(weight_leaf.release());
+    if (colour_leaf) {
+      colour->tree().addLeaf(colour_leaf.release());
+      colour_weight->tree().addLeaf(colour_weight_leaf.release());
+    }
     ++stats.bricks;
     stats.active_voxels += active;
   }
@@ -142,7 +166,12 @@ VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume
   write_atomically(path, [&](const std::string& partial) {
     try {
       openvdb::io::File file(partial);
-      file.write(openvdb::GridCPtrVec{tsdf, weight}, file_meta);
+      openvdb::GridCPtrVec grids{tsdf, weight};
+      if (colour->tree().leafCount() > 0) {
+        grids.push_back(colour);
+        grids.push_back(colour_weight);
+      }
+      file.write(grids, file_meta);
       file.close();
     } catch (const std::exception& e) {
       throw Error(ExitCode::kFailure, partial + ": cannot write: " + one_line(e.what()));
@@ -157,15 +186,29 @@ VdbWriteStats write_volume_vdb(const std::string& path, const VolumeView& volume
 
 VolumeData read_volume_vdb(const std::string& path) {
   openvdb::initialize();
-  openvdb::FloatGrid::Ptr tsdf, weight;
+  openvdb::FloatGrid::Ptr tsdf, weight, colour_weight;
+  openvdb::Vec3SGrid::Ptr colour;
   try {
     openvdb::io::File file(path);
     file.open(false);  // read everything now (no delayed loading of a file that may change)
-    for (const char* name : {kTsdfGrid, kWeightGrid}) {
-      if (!file.hasGrid(name)) throw input_error(path + ": no grid named '" + name + "'");
+    const auto float_grid = [&](const char* name) {
       openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(name));
       if (!grid) throw input_error(path + ": grid '" + name + "' is not a float grid");
-      (name == std::string(kTsdfGrid) ? tsdf : weight) = grid;
+      return grid;
+    };
+    for (const char* name : {kTsdfGrid, kWeightGrid})
+      if (!file.hasGrid(name)) throw input_error(path + ": no grid named '" + name + "'");
+    tsdf = float_grid(kTsdfGrid);
+    weight = float_grid(kWeightGrid);
+    if (file.hasGrid(kColourGrid) != file.hasGrid(kColourWeightGrid))
+      throw input_error(path + ": grid '" + (file.hasGrid(kColourGrid) ? kColourWeightGrid
+                                                                       : kColourGrid) +
+                        "' is missing beside '" +
+                        (file.hasGrid(kColourGrid) ? kColourGrid : kColourWeightGrid) + "'");
+    if (file.hasGrid(kColourGrid)) {
+      colour = openvdb::gridPtrCast<openvdb::Vec3SGrid>(file.readGrid(kColourGrid));
+      if (!colour) throw input_error(path + ": grid 'Cd' is not a Vec3s grid");
+      colour_weight = float_grid(kColourWeightGrid);
     }
     file.close();
   } catch (const Error&) {
@@ -179,6 +222,8 @@ VolumeData read_volume_vdb(const std::string& path) {
   const openvdb::math::UniformScaleMap::ConstPtr map =
       xf.constMap<openvdb::math::UniformScaleMap>();
   if (!map) throw input_error(path + ": transform is not a uniform scale without rotation");
+  if (colour && (!(xf == colour->transform()) || !(xf == colour_weight->transform())))
+    throw input_error(path + ": grids 'Cd' and 'colour_weight' have another transform than 'tsdf'");
 
   VolumeData out;
   out.voxel_size_m = xf.voxelSize()[0];
@@ -186,9 +231,19 @@ VolumeData read_volume_vdb(const std::string& path) {
       tsdf->getMetadata<openvdb::FloatMetadata>(kTruncationMeta);
   out.truncation_m = meta ? meta->value() : tsdf->background();
   const auto truncation = static_cast<float>(out.truncation_m);
+  out.has_colour = colour != nullptr;
 
   tsdf->tree().voxelizeActiveTiles();
   openvdb::FloatGrid::ConstAccessor weights = weight->getConstAccessor();
+  std::optional<openvdb::Vec3SGrid::ConstAccessor> colours;
+  std::optional<openvdb::FloatGrid::ConstAccessor> colour_weights;
+  if (colour) {
+    colours.emplace(colour->getConstAccessor());
+    colour_weights.emplace(colour_weight->getConstAccessor());
+  }
+  const auto byte = [](float v) {  // [0, 1] back to the byte it was written from
+    return static_cast<std::uint8_t>(std::clamp(std::lrint(v * 255.0f), 0L, 255L));
+  };
   for (auto leaf = tsdf->tree().cbeginLeaf(); leaf; ++leaf) {
     if (leaf->isEmpty()) continue;
     VolumeBrick brick;
@@ -201,6 +256,13 @@ VolumeData read_volume_vdb(const std::string& path) {
       const int i = local.x() + kBrickSize * (local.y() + kBrickSize * local.z());
       brick.sdf_m[i] = *v;
       brick.weight[i] = weights.getValue(v.getCoord());
+      if (!colours || !colour_weights->isValueOn(v.getCoord())) continue;
+      const float cw = colour_weights->getValue(v.getCoord());
+      if (!(cw >= 1.0f)) continue;  // no colour (or not a count): the voxel stays uncoloured
+      const openvdb::Vec3s c = colours->getValue(v.getCoord());
+      if (!std::isfinite(c.x()) || !std::isfinite(c.y()) || !std::isfinite(c.z())) continue;
+      brick.colour[i] = Rgb8{byte(c.x()), byte(c.y()), byte(c.z())};
+      brick.colour_weight[i] = static_cast<std::uint8_t>(std::min(cw, 255.0f));
     }
     out.bricks.push_back(brick);
   }

@@ -278,7 +278,8 @@ Processing::ExportResult Processing::final_mesh() const {
 
 VolumeStats Processing::write_volume(const std::string& path) const {
   const VdbWriteStats written =
-      aoscan::write_volume(path, reconstruction_.volume(), &config_.fusion);
+      aoscan::write_volume(path, reconstruction_.volume(), &config_.fusion,
+                           &reconstruction_.colour());
   return {true, written.bricks, written.active_voxels, written.file_bytes, 0.0};
 }
 

@@ -82,7 +82,7 @@ void save_session(OutputFolder& outputs, const Processing& processing, const Con
   fs::create_directories(outputs.path(kSessionFolder), ec);  // a failure shows in each write
   const Reconstruction& rec = processing.reconstruction();
   outputs.write(in_session(kVolume), [&](const std::string& path) {
-    write_volume(path, rec.volume(), &config.fusion);
+    write_volume(path, rec.volume(), &config.fusion, &rec.colour());
   });
   outputs.write(in_session(kGrid), [&](const std::string& path) {
     const MvaoGrid& grid = processing.grid();
@@ -202,8 +202,11 @@ void Processing::restore(const LoadedSession& session) {
   keyframes.reserve(session.keyframes.keyframes.size());
   for (const SavedKeyframe& k : session.keyframes.keyframes)
     keyframes.push_back({k.codes, Pose::from_matrix(k.T_world_camera), k.depth_mm});
-  reconstruction_.restore([&](TsdfVolume& volume) { load_volume(session.volume, volume); },
-                          std::move(keyframes));
+  reconstruction_.restore(
+      [&](TsdfVolume& volume, ColourVolume& colour) {
+        load_volume(session.volume, volume, &colour);
+      },
+      std::move(keyframes));
   grid_.clear();
   if (std::abs(session.grid.cell_size_m - grid_.cell_size_m()) >
       1e-9 * grid_.cell_size_m())

@@ -2,7 +2,10 @@
 // exact voxel values), read-back, determinism and errors.
 #include "io/vdb.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <vector>
 
@@ -129,6 +132,81 @@ TEST(Vdb, ReadBackGivesTheObservedBricksInOrder) {
   for (int i = 0; i < kBrickVoxels; ++i) {
     EXPECT_EQ(data.bricks[0].weight[i], bricks[0].weight[i]);
     EXPECT_EQ(data.bricks[0].sdf_m[i], bricks[0].sdf_m[i]);  // unobserved: truncation both
+  }
+}
+
+// With colour: the grids Cd (RGB in [0, 1]) and colour_weight on the observed voxels that have
+// colour, exactly as OpenVDB reads them, and the bytes and weights back exactly; an observed voxel
+// without colour stays uncoloured, and a colour on an unobserved voxel is not written.
+TEST(Vdb, ColourIsWrittenAsCdAndColourWeightAndReadBackExactly) {
+  testing::ScratchDir dir;
+  std::vector<VolumeBrick> bricks = sample_bricks();
+  for (int i = 0; i < kBrickVoxels; ++i) {
+    if (i % 3 == 0) continue;  // observed without colour
+    bricks[1].colour[i] = Rgb8{static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>(255 - i % 256),
+                               static_cast<std::uint8_t>((7 * i) % 256)};
+    bricks[1].colour_weight[i] = static_cast<std::uint8_t>(1 + i % 16);
+  }
+  bricks[2].colour[0] = Rgb8{1, 2, 3};  // the unobserved brick: not written
+  bricks[2].colour_weight[0] = 5;
+  VolumeView view = view_of(bricks);
+  view.has_colour = true;
+  write_volume_vdb(dir.file("volume.vdb"), view);
+
+  openvdb::initialize();
+  openvdb::io::File file(dir.file("volume.vdb"));
+  file.open();
+  std::vector<std::string> names;
+  for (auto it = file.beginName(); it != file.endName(); ++it) names.push_back(it.gridName());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"Cd", "colour_weight", "tsdf", "weight"}));
+  const auto cd = openvdb::gridPtrCast<openvdb::Vec3SGrid>(file.readGrid("Cd"));
+  file.close();
+  ASSERT_TRUE(cd);
+  EXPECT_EQ(cd->activeVoxelCount(), 512u - 171u);  // brick 1's voxels with colour
+  const openvdb::Vec3s c = cd->getConstAccessor().getValue(openvdb::Coord(-8 + 1, -8, 0));
+  EXPECT_FLOAT_EQ(c.x(), 1.0f / 255.0f);
+  EXPECT_FLOAT_EQ(c.y(), 254.0f / 255.0f);
+  EXPECT_FLOAT_EQ(c.z(), 7.0f / 255.0f);
+
+  const VolumeData data = read_volume_vdb(dir.file("volume.vdb"));
+  EXPECT_TRUE(data.has_colour);
+  ASSERT_EQ(data.bricks.size(), 2u);
+  EXPECT_EQ(data.bricks[1].colour, bricks[1].colour);
+  EXPECT_EQ(data.bricks[1].colour_weight, bricks[1].colour_weight);
+  for (int i = 0; i < kBrickVoxels; ++i) EXPECT_EQ(data.bricks[0].colour_weight[i], 0) << i;
+
+  // Without colour the file is the one of a volume that never had any.
+  view.has_colour = false;
+  write_volume_vdb(dir.file("plain.vdb"), view);
+  write_volume_vdb(dir.file("never.vdb"), view_of(sample_bricks()));
+  const auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(dir.file("plain.vdb")), bytes(dir.file("never.vdb")));
+  EXPECT_FALSE(read_volume_vdb(dir.file("plain.vdb")).has_colour);
+}
+
+// A file with one of the two colour grids and not the other is damaged.
+TEST(Vdb, HalfTheColourGridsIsAnErrorNamingTheFile) {
+  testing::ScratchDir dir;
+  openvdb::initialize();
+  openvdb::FloatGrid::Ptr tsdf = openvdb::FloatGrid::create(0.04f);
+  openvdb::FloatGrid::Ptr weight = openvdb::FloatGrid::create(0.0f);
+  openvdb::Vec3SGrid::Ptr cd = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  tsdf->setName("tsdf");
+  weight->setName("weight");
+  cd->setName("Cd");
+  tsdf->tree().setValueOn(openvdb::Coord(1, 2, 3), 0.01f);
+  weight->tree().setValueOn(openvdb::Coord(1, 2, 3), 1.0f);
+  openvdb::io::File(dir.file("half.vdb")).write(openvdb::GridCPtrVec{tsdf, weight, cd});
+  try {
+    read_volume_vdb(dir.file("half.vdb"));
+    FAIL() << "read a file with Cd and no colour_weight";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(dir.file("half.vdb")), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("colour_weight"), std::string::npos) << e.what();
   }
 }
 

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "io/ply.h"
 #include "io/tum.h"
 #include "pipeline/list_source.h"
 #include "pipeline/session.h"
@@ -86,6 +87,37 @@ TEST(SavedSession, ASecondTakeContinuesInTheFirstTakesWorld) {
   EXPECT_EQ(nlohmann::json::parse(std::ifstream(two / "session" / "session.json"))["takes"], 3);
   EXPECT_TRUE(fs::is_regular_file(two / "previous" / "session" / "session.json"));
   EXPECT_EQ(third.trajectory.size(), second.trajectory.size() + 8);
+}
+
+// The fused colour is part of the session: a take with colour saved, then continued by a take
+// without colour, still meshes the first take's surface in its colour (what it did not see again
+// keeps the colour it had; what only the second take saw has none).
+TEST(SavedSession, TheFusedColourIsSavedAndContinued) {
+  testing::ScratchDir scratch;
+  constexpr Rgb8 kPaint{180, 90, 30};
+  std::vector<DepthFrame> coloured = test::frames(0, 40);
+  for (DepthFrame& f : coloured) {
+    f.colour = Image<Rgb8>(f.intrinsics.width, f.intrinsics.height, kPaint);
+    f.colour_camera = ColourCamera::registered_to(f.intrinsics);
+  }
+  const Take first = run(scratch.file("one"), coloured);
+  ASSERT_EQ(first.result.exit_code, ExitCode::kOk) << first.result.error;
+  const TriangleMesh one = read_ply(scratch.file("one") + "/mesh.ply");
+  const Take second = run(scratch.file("two"), second_take(), scratch.file("one"));
+  ASSERT_EQ(second.result.exit_code, ExitCode::kOk) << second.result.error;
+  const TriangleMesh two = read_ply(scratch.file("two") + "/mesh.ply");
+  const auto painted = [&](const TriangleMesh& mesh) {
+    std::size_t n = 0;
+    for (const Rgb8& c : mesh.colours) n += c == kPaint;
+    return n;
+  };
+  ASSERT_EQ(one.colours.size(), one.vertices.size());
+  EXPECT_GT(painted(one), one.vertices.size() * 9 / 10);
+  ASSERT_EQ(two.colours.size(), two.vertices.size()) << "the resumed take lost the colour";
+  // The second take sees part of the first one's surface again and some new surface.
+  EXPECT_GT(painted(two), painted(one) * 8 / 10);
+  EXPECT_LT(painted(two), two.vertices.size());
+  EXPECT_EQ(second.stats["mesh"]["coloured"], true);
 }
 
 /// Makes a saved session in `dir` from a short take.

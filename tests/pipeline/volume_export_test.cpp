@@ -3,6 +3,7 @@
 // TsdfVolume, and the session's outputs and errors.
 #include "pipeline/volume_export.h"
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -113,6 +114,50 @@ TEST(VolumeExport, ReadBackVolumeMeshesLikeTheOriginal) {
   tiny.max_blocks = 1;
   TsdfVolume too_small{tiny};
   EXPECT_THROW(load_volume(read_volume_vdb(path), too_small), Error);
+}
+
+// The colour of a volume goes through volume.vdb and back voxel for voxel (the colour of the
+// observed voxels; a volume without colour blocks writes no colour grids).
+TEST(VolumeExport, ColourGoesThroughVolumeVdbExactly) {
+  aoscan::testing::ScratchDir scratch;
+  const TsdfVolume volume = fused_plane();
+  ColourVolume colour;
+  int painted = 0;
+  for (int b = 0; b < volume.block_count(); b += 2) {
+    ColourBlock& cb = colour.allocate(b);
+    for (int v = 0; v < kBlockVoxels; ++v)
+      if (volume.block(b).voxels[v].count > 0 && (v + b) % 5 != 0) {
+        cb.voxels[v] = ColourVoxel{static_cast<std::uint8_t>(b % 256), static_cast<std::uint8_t>(v % 256),
+                                   static_cast<std::uint8_t>((b + v) % 256),
+                                   static_cast<std::uint8_t>(1 + v % 16)};
+        ++painted;
+      }
+  }
+  ASSERT_GT(painted, 1000);
+  const std::string path = (scratch.folder("colour") / "volume.vdb").string();
+  write_volume(path, volume, nullptr, &colour);
+  TsdfVolume loaded{FusionConfig{}};
+  ColourVolume loaded_colour;
+  load_volume(read_volume_vdb(path), loaded, &loaded_colour);
+  ASSERT_EQ(loaded.block_count(), volume.block_count());
+  int compared = 0;
+  for (int b = 0; b < volume.block_count(); ++b) {
+    const int l = loaded.find_block(volume.block_coord(b));
+    ASSERT_GE(l, 0);
+    const ColourBlock* a = colour.block(b);
+    const ColourBlock* c = loaded_colour.block(l);
+    for (int v = 0; v < kBlockVoxels; ++v) {
+      const ColourVoxel want = a != nullptr ? a->voxels[v] : ColourVoxel{};
+      const ColourVoxel got = c != nullptr ? c->voxels[v] : ColourVoxel{};
+      ASSERT_EQ(std::memcmp(&want, &got, sizeof(ColourVoxel)), 0) << "block " << b << " voxel " << v;
+      compared += want.weight > 0;
+    }
+  }
+  EXPECT_EQ(compared, painted);
+  // Without colour blocks: no colour grids.
+  const ColourVolume none;
+  write_volume(path, volume, nullptr, &none);
+  EXPECT_FALSE(read_volume_vdb(path).has_colour);
 }
 
 TEST(VolumeExport, SessionWritesVolumeAndStats) {
