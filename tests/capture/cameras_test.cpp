@@ -179,8 +179,10 @@ TEST(FakenectDump, WritesTheIndexAndNearestDisparities) {
 TEST(FreenectUri, ParsesIndexAndModeAndRejectsTheRest) {
   EXPECT_EQ(parse_freenect_uri("freenect").index, 0);
   EXPECT_EQ(parse_freenect_uri("freenect:2").index, 2);
-  EXPECT_TRUE(parse_freenect_uri("freenect:1?depth=mm").depth_mm);
-  EXPECT_FALSE(parse_freenect_uri("freenect?depth=raw").depth_mm);
+  EXPECT_EQ(parse_freenect_uri("freenect:1?depth=mm").depth, FreenectDepth::kMm);
+  EXPECT_EQ(parse_freenect_uri("freenect?depth=raw").depth, FreenectDepth::kRaw);
+  EXPECT_EQ(parse_freenect_uri("freenect").depth, FreenectDepth::kRaw);
+  EXPECT_EQ(parse_freenect_uri("freenect:0?depth=registered").depth, FreenectDepth::kRegistered);
   expect_error([] { parse_freenect_uri("freenect:x"); }, ExitCode::kUsage, "freenect:x");
   expect_error([] { parse_freenect_uri("freenect:"); }, ExitCode::kUsage, "freenect:");
   expect_error([] { parse_freenect_uri("freenect:0?depth=cm"); }, ExitCode::kUsage, "depth=cm");
