@@ -116,10 +116,14 @@ void ColourPairer::commit_failed(double timestamp_s, std::string why) {
   have_newest_ = true;
 }
 
-bool ColourPairer::worth_waiting(double depth_timestamp_s, double stall_s) const {
-  if (!have_newest_) return false;                        // never delivered: not waited for
-  if (newest_s_ >= depth_timestamp_s) return false;       // a later frame is here: no better one
-  return depth_timestamp_s - newest_s_ < stall_s;         // stopped: not waited for
+bool ColourPairer::worth_waiting(double depth_timestamp_s, double stall_s) {
+  if (!have_first_depth_) {
+    first_depth_s_ = depth_timestamp_s;
+    have_first_depth_ = true;
+  }
+  if (!have_newest_) return depth_timestamp_s - first_depth_s_ < stall_s;  // starting
+  if (newest_s_ >= depth_timestamp_s) return false;  // a later frame is here: no better one
+  return depth_timestamp_s - newest_s_ < stall_s;    // stopped: not waited for
 }
 
 void ColourPairer::pair(DepthFrame& frame, const ColourCamera& camera, const std::string& where) {

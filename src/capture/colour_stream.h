@@ -62,10 +62,12 @@ class ColourPairer {
   void commit_failed(double timestamp_s, std::string why);
 
   /// True when waiting for the next colour frame may give `depth_timestamp_s` a nearer partner:
-  /// no buffered colour frame is at or after it, and the colour stream is flowing (its newest
-  /// frame is less than `stall_s` older than the depth frame; a stream that never delivered or
-  /// has stopped is not waited for).
-  bool worth_waiting(double depth_timestamp_s, double stall_s = kDefaultStallS) const;
+  /// no buffered colour frame is at or after it, and the colour stream is flowing: its newest
+  /// frame is less than `stall_s` older than the depth frame (a stream that has stopped is not
+  /// waited for) or, before any colour frame arrived, the first depth frame asked about is less
+  /// than `stall_s` older (a stream that is starting is waited for, one that never delivers only
+  /// that long).
+  bool worth_waiting(double depth_timestamp_s, double stall_s = kDefaultStallS);
 
   /// Gives `frame` (timestamp_s set) its colour: the camera, and the nearest unused colour frame
   /// within max_dt_s swapped into frame.colour with frame.colour_timestamp_s; or an empty colour
@@ -91,6 +93,8 @@ class ColourPairer {
   std::size_t received_ = 0;
   bool have_newest_ = false;
   double newest_s_ = 0.0;
+  bool have_first_depth_ = false;
+  double first_depth_s_ = 0.0;
 };
 
 }  // namespace aoscan

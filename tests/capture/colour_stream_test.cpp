@@ -161,7 +161,9 @@ TEST(ColourPairer, NearestWithinTwentyMillisecondsEachUsedOnce) {
 
 TEST(ColourPairer, WaitsOnlyForAFlowingStreamThatIsBehind) {
   ColourPairer pairer;
-  EXPECT_FALSE(pairer.worth_waiting(1.0));  // nothing ever arrived
+  EXPECT_TRUE(pairer.worth_waiting(1.0));    // starting: the first colour frame may be coming
+  EXPECT_TRUE(pairer.worth_waiting(1.19));
+  EXPECT_FALSE(pairer.worth_waiting(1.2));   // 200 ms of depth and no colour yet: not waited for
   add(pairer, 0.98, Rgb8{});
   EXPECT_TRUE(pairer.worth_waiting(1.0));   // the next one may be nearer
   EXPECT_FALSE(pairer.worth_waiting(0.98));  // one at the very time is here
