@@ -52,7 +52,10 @@ class CameraFileSource final : public Source {
     }
     const Status s = inner_->read(frame);
     if (!s.is_ok()) return s;
-    const std::string where = frame.origin + " (frame " + std::to_string(frame.sequence) + ")";
+    // Frame origins are a file, a camera's name or already name the frame (synth:).
+    const std::string where = frame.origin.find("frame ") != std::string::npos
+                                  ? frame.origin
+                                  : frame.origin + " (frame " + std::to_string(frame.sequence) + ")";
     if (frame.depth.width() != intrinsics_.width || frame.depth.height() != intrinsics_.height)
       return Status::corrupt_frame(where + ": " +
                                    size_text(frame.depth.width(), frame.depth.height()) +

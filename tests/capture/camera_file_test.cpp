@@ -40,7 +40,7 @@ TEST(CameraFile, ReplacesIntrinsicsScaleAndColourCameraOfEveryFrame) {
   // The synthetic colour is 640x480, the file's colour camera 320x240: a colour skip, the depth
   // is kept.
   EXPECT_TRUE(frame.colour.empty());
-  EXPECT_EQ(frame.colour_error, "synth:corner?frames=2&colour=on (frame 0): colour image of "
+  EXPECT_EQ(frame.colour_error, "synth:corner?frames=2&colour=on frame 0: colour image of "
                                 "640x480 differs from 320x240 of the colour camera in " +
                                     path.string());
   EXPECT_EQ(frame.depth.width(), 640);

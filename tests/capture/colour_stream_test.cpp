@@ -163,13 +163,13 @@ TEST(ColourPairer, WaitsOnlyForAFlowingStreamThatIsBehind) {
   ColourPairer pairer;
   EXPECT_TRUE(pairer.worth_waiting(1.0));    // starting: the first colour frame may be coming
   EXPECT_TRUE(pairer.worth_waiting(1.19));
-  EXPECT_FALSE(pairer.worth_waiting(1.2));   // 200 ms of depth and no colour yet: not waited for
+  EXPECT_FALSE(pairer.worth_waiting(1.21));  // over 200 ms of depth and no colour yet: not waited for
   add(pairer, 0.98, Rgb8{});
   EXPECT_TRUE(pairer.worth_waiting(1.0));   // the next one may be nearer
   EXPECT_FALSE(pairer.worth_waiting(0.98));  // one at the very time is here
   EXPECT_FALSE(pairer.worth_waiting(0.97));  // one after it is here
   EXPECT_TRUE(pairer.worth_waiting(1.17));
-  EXPECT_FALSE(pairer.worth_waiting(1.18));  // 200 ms without colour: stopped
+  EXPECT_FALSE(pairer.worth_waiting(1.19));  // over 200 ms without colour: stopped
 }
 
 TEST(ColourPairer, WrongSizesAndFailedFramesAreErrorsOfTheirDepthFrame) {
