@@ -109,24 +109,25 @@ TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
 
 /// A camera.json with a colour camera beside the depth camera (values chosen to be exact in
 /// binary and unlike every default).
-fs::path write_camera(const fs::path& dir) {
+/// `depth_scale`: the source's raw units per metre (1000 for a Kinect, 5000 for synth:).
+fs::path write_camera(const fs::path& dir, int depth_scale = 1000) {
   const fs::path path = dir / "calibrated.json";
   std::ofstream(path) << R"({ "fx": 600.5, "fy": 601.25, "cx": 318.75, "cy": 241.5,
-    "depth_scale": 1000,
+    "depth_scale": )" << depth_scale << R"(,
     "colour": { "width": 640, "height": 480, "fx": 530.5, "fy": 530.5, "cx": 320.25, "cy": 240.75,
                 "depth_to_colour": [1, 0, 0, -0.0234375, 0, 1, 0, 0.001953125, 0, 0, 1, 0] } })";
   return path;
 }
 
 /// Checks that `json` (a recording's camera.json) is write_camera()'s camera.
-void expect_written_camera(const fs::path& json) {
+void expect_written_camera(const fs::path& json, int depth_scale = 1000) {
   const auto cam = nlohmann::json::parse(read_text(json));
   EXPECT_EQ(cam["width"].get<int>(), 640);
   EXPECT_EQ(cam["fx"].get<double>(), 600.5);
   EXPECT_EQ(cam["fy"].get<double>(), 601.25);
   EXPECT_EQ(cam["cx"].get<double>(), 318.75);
   EXPECT_EQ(cam["cy"].get<double>(), 241.5);
-  EXPECT_EQ(cam["depth_scale"].get<double>(), 1000.0);
+  EXPECT_EQ(cam["depth_scale"].get<double>(), depth_scale);
   ASSERT_TRUE(cam.contains("colour")) << cam.dump();
   EXPECT_EQ(cam["colour"]["fx"].get<double>(), 530.5);
   EXPECT_EQ(cam["colour"]["cx"].get<double>(), 320.25);
@@ -145,13 +146,13 @@ int count_entries(const fs::path& list) {
 TEST(CameraCli, RecordWithCameraFileWritesThatCameraIntoTheRecording) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("record_camera");
-  const fs::path camera = write_camera(dir);
+  const fs::path camera = write_camera(dir, 5000);
   const fs::path out = dir / "rec";
   const CliRun r = run("", "record 'synth:corner?frames=3&colour=on' '" + out.string() +
                                "' --camera '" + camera.string() + "'",
                        dir);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  expect_written_camera(out / "camera.json");
+  expect_written_camera(out / "camera.json", 5000);
   EXPECT_EQ(count_entries(out / "rgb.txt"), 3);
   // The recording replays with that camera.
   const CliRun replay = run("", "replay '" + out.string() + "' --headless --no-progress --out '" +
