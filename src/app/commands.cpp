@@ -12,6 +12,7 @@
 
 #include <tbb/global_control.h>
 
+#include "capture/camera_file.h"
 #include "capture/devices.h"
 #include "capture/loop_source.h"
 #include "capture/output_file.h"
@@ -56,7 +57,11 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
     options.chain.on_progress = progress_lines(*args.progress_every_s);
   }
 
+  // A bad --camera file is refused before the camera is touched.
+  std::optional<CameraInfo> camera;
+  if (!args.camera_file.empty()) camera = read_camera_file(args.camera_file);
   std::unique_ptr<Source> source = open_source(args.source);
+  if (camera) source = with_camera_file(std::move(source), *camera, args.camera_file);
   if (args.live && !source->live())
     throw usage_error(args.source + ": scan needs a live camera; use replay for recordings");
   if (args.loop) source = make_loop_source(std::move(source), *args.loop);
@@ -67,7 +72,10 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
 }
 
 ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_requested) {
+  std::optional<CameraInfo> camera;
+  if (!args.camera_file.empty()) camera = read_camera_file(args.camera_file);
   std::unique_ptr<Source> source = open_source(args.source);
+  if (camera) source = with_camera_file(std::move(source), *camera, args.camera_file);
   // A live camera is read on its own thread so a slow disk never stalls it; recordings and
   // synthetic scenes are simply read and written in turn.
   const RecordStats stats =

@@ -29,12 +29,17 @@ struct RunArgs {
   std::optional<double> progress_every_s;
   std::optional<std::int64_t> loop;  ///< replay --loop N: play the source N times (ping-pong)
   bool live = false;         ///< scan: a live camera is required
+  /// scan --camera FILE: a camera.json replacing the camera's nominal calibration ("" = none).
+  std::string camera_file;
 };
 
 struct RecordArgs {
   std::string source;
   std::string dir;
   std::optional<std::size_t> max_frames;
+  /// --camera FILE: a camera.json replacing the source's calibration ("" = none); the recording's
+  /// camera.json is then this calibration.
+  std::string camera_file;
 };
 
 /// The command line of `scans`.

@@ -288,8 +288,12 @@ int run(int argc, char** argv) {
   scan_args.source = "auto";
   CLI::App* scan = app.add_subcommand("scan", "run the whole pipeline on a live camera");
   scan->add_option("--device", scan_args.source, "camera URI (openni2[:URI], freenect[:INDEX], "
-                                                 "v4l2:/dev/videoN) or auto")->capture_default_str();
+                                                 "v4l2:/dev/videoN[?colour=/dev/videoM]) or auto")->capture_default_str();
   add_run_options(*scan, scan_args);
+  scan->add_option("--camera", scan_args.camera_file,
+                   "camera.json replacing the camera's nominal calibration: depth intrinsics, "
+                   "depth_scale and an optional colour camera (as in a recording folder)")
+      ->type_name("FILE");
 
   RecordArgs record_args;
   CLI::App* record = app.add_subcommand("record", "write any source to a TUM-layout recording folder");
@@ -297,6 +301,10 @@ int run(int argc, char** argv) {
   record->add_option("DIR", record_args.dir, "recording folder to create")->required();
   record->add_option("--frames", record_args.max_frames, "record at most N frames")
       ->check(whole_number(1, kMaxFrames));
+  record->add_option("--camera", record_args.camera_file,
+                     "camera.json replacing the source's calibration (depth intrinsics, "
+                     "depth_scale, optional colour camera); written as the recording's camera.json")
+      ->type_name("FILE");
 
   CLI::App* devices = app.add_subcommand("devices", "list the depth cameras this machine can see");
 

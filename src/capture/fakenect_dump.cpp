@@ -22,6 +22,12 @@ std::string fakenect_depth_file_name(double time_s, std::uint32_t ticks) {
   return name;
 }
 
+std::string fakenect_video_file_name(double time_s, std::uint32_t ticks) {
+  char name[96];
+  std::snprintf(name, sizeof name, "r-%.6f-%u.ppm", time_s, static_cast<unsigned>(ticks));
+  return name;
+}
+
 FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
                                       std::optional<std::size_t> max_frames,
                                       const std::atomic<bool>* stop_requested) {
@@ -71,21 +77,41 @@ FakenectDumpStats write_fakenect_dump(Source& source, const std::string& dir,
     }
 
     if (!first_time_s) first_time_s = frame.timestamp_s;
-    const double elapsed_s = frame.timestamp_s - *first_time_s;
-    const auto ticks = static_cast<std::uint32_t>(
-        static_cast<std::uint64_t>(std::llround(std::max(0.0, elapsed_s) * kKinectClockHz)));
-    const std::string name = fakenect_depth_file_name(frame.timestamp_s, ticks);
-    const std::string path = root + "/" + name;
-    {
-      OutputFile pgm = open_output(path);
-      if (std::fwrite(header.data(), 1, header.size(), pgm.get()) != header.size() ||
-          std::fwrite(disparity.data(), sizeof(std::uint16_t), disparity.size(), pgm.get()) !=
-              disparity.size())
-        throw_write_failed(path);
-      close_checked(pgm, path);
-    }
-    if (std::fprintf(index.get(), "%s\n", name.c_str()) < 0 || std::fflush(index.get()) != 0)
-      throw_write_failed(index_path);
+    const auto ticks_at = [&](double t) {
+      return static_cast<std::uint32_t>(static_cast<std::uint64_t>(
+          std::llround(std::max(0.0, t - *first_time_s) * kKinectClockHz)));
+    };
+    // Writes one dump file (header line, then `count` items of `size` bytes) and lists it.
+    const auto write_listed = [&](const std::string& name, const std::string& file_header,
+                                  const void* data, std::size_t size, std::size_t count) {
+      const std::string path = root + "/" + name;
+      {
+        OutputFile file = open_output(path);
+        if (std::fwrite(file_header.data(), 1, file_header.size(), file.get()) !=
+                file_header.size() ||
+            std::fwrite(data, size, count, file.get()) != count)
+          throw_write_failed(path);
+        close_checked(file, path);
+      }
+      if (std::fprintf(index.get(), "%s\n", name.c_str()) < 0 || std::fflush(index.get()) != 0)
+        throw_write_failed(index_path);
+    };
+    const bool colour = !frame.colour.empty();
+    const bool colour_fits =
+        frame.colour.width() == kFakenectWidth && frame.colour.height() == kFakenectHeight;
+    if (colour && !colour_fits) ++stats.colour_frames_skipped;
+    const auto write_video = [&] {
+      static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are PPM's RGB rows");
+      write_listed(fakenect_video_file_name(frame.colour_timestamp_s,
+                                            ticks_at(frame.colour_timestamp_s)),
+                   "P6 640 480 255\n", frame.colour.data(), sizeof(Rgb8), frame.colour.size());
+      ++stats.colour_frames_written;
+    };
+    const bool video_first = colour && colour_fits && frame.colour_timestamp_s <= frame.timestamp_s;
+    if (video_first) write_video();
+    write_listed(fakenect_depth_file_name(frame.timestamp_s, ticks_at(frame.timestamp_s)), header,
+                 disparity.data(), sizeof(std::uint16_t), disparity.size());
+    if (colour && colour_fits && !video_first) write_video();
     ++stats.frames_written;
   }
   close_checked(index, index_path);

@@ -17,6 +17,10 @@ class LoopSource final : public Source {
       : inner_(std::move(inner)), passes_(passes), n_(*inner_->size()) {}
 
   Status read(DepthFrame& frame) override {
+    if (!forwarded_) {
+      forward_settings(*inner_);
+      forwarded_ = true;
+    }
     while (pass_ < passes_ && n_ > 0) {
       if (pos_ >= n_) {
         ++pass_;
@@ -67,6 +71,7 @@ class LoopSource final : public Source {
 
  private:
   std::unique_ptr<Source> inner_;
+  bool forwarded_ = false;  ///< the stop flag and colour choice handed on to inner_
   std::size_t passes_;
   std::size_t n_;         ///< frames per pass
   std::size_t pass_ = 0;  ///< the pass being read

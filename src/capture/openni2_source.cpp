@@ -6,11 +6,13 @@
 
 #include <OpenNI.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
 
+#include "capture/colour_stream.h"
 #include "capture/device_claim.h"
 #include "core/log.h"
 
@@ -18,6 +20,12 @@ namespace aoscan {
 namespace {
 
 constexpr int kFrameTimeoutMs = 2000;
+/// The longest a depth frame waits for a colour frame that may be nearer to it in time.
+constexpr int kColourWaitMs = 40;
+/// The colour camera of the PrimeSense design (Carmine, Xtion) sits about 25 mm beside the depth
+/// camera, along its +x axis: the nominal depth-to-colour translation when the device does not
+/// register depth to colour.
+constexpr double kNominalDepthToColourX = -0.025;
 
 /// OpenNI2's last error on one line.
 std::string openni_error() {
@@ -61,6 +69,41 @@ const openni::VideoMode* choose_mode(const openni::SensorInfo& info) {
   return best;
 }
 
+/// The RGB888 colour mode nearest to `width` x `height` @ 30 Hz; null when there is none.
+const openni::VideoMode* choose_colour_mode(const openni::SensorInfo& info, int width,
+                                            int height) {
+  const openni::Array<openni::VideoMode>& modes = info.getSupportedVideoModes();
+  const openni::VideoMode* best = nullptr;
+  long best_cost = 0;
+  for (int i = 0; i < modes.getSize(); ++i) {
+    const openni::VideoMode& m = modes[i];
+    if (m.getPixelFormat() != openni::PIXEL_FORMAT_RGB888) continue;
+    const long cost = std::labs(m.getResolutionX() - static_cast<long>(width)) +
+                      std::labs(m.getResolutionY() - static_cast<long>(height)) +
+                      10L * std::labs(m.getFps() - 30L);
+    if (!best || cost < best_cost) {
+      best = &m;
+      best_cost = cost;
+    }
+  }
+  return best;
+}
+
+/// Focal lengths from a stream's fields of view (radians), or 525 * width / 640 when the driver
+/// reports none that is plausible; the principal point is the image centre.
+Intrinsics intrinsics_from_fov(int width, int height, double hfov, double vfov) {
+  Intrinsics k;
+  k.width = width;
+  k.height = height;
+  const bool fov_ok = std::isfinite(hfov) && std::isfinite(vfov) && hfov > 0.1 && hfov < 3.0 &&
+                      vfov > 0.1 && vfov < 3.0;
+  k.fx = fov_ok ? width / (2.0 * std::tan(hfov / 2.0)) : 525.0 * width / 640.0;
+  k.fy = fov_ok ? height / (2.0 * std::tan(vfov / 2.0)) : k.fx;
+  k.cx = (width - 1) * 0.5;
+  k.cy = (height - 1) * 0.5;
+  return k;
+}
+
 class OpenNI2Source : public Source {
  public:
   /// `target` is a device URI (empty: any device) or an .oni path when `file` is set.
@@ -76,20 +119,29 @@ class OpenNI2Source : public Source {
   ~OpenNI2Source() override { release(); }
 
   Status read(DepthFrame& frame) override {
+    if (!colour_decided_) start_colour();
     if (!lost_.empty()) return Status::device_lost(lost_);
     if (file_ && frames_total_ >= 0 && frames_read_ >= static_cast<std::size_t>(frames_total_))
       return Status::end_of_stream();
-    openni::VideoStream* streams[] = {&stream_};
-    int ready = -1;
-    // Short waits up to the frame timeout, so that a stop request is seen at once.
+    // Short waits up to the frame timeout, so that a stop request is seen at once; colour frames
+    // that arrive meanwhile are kept for pairing.
     openni::Status wait = openni::STATUS_TIME_OUT;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kFrameTimeoutMs);
-    while (wait == openni::STATUS_TIME_OUT && std::chrono::steady_clock::now() < deadline) {
+    bool have_depth = false;
+    while (!have_depth && std::chrono::steady_clock::now() < deadline) {
       if (stop_requested()) return Status::end_of_stream();
-      wait = openni::OpenNI::waitForAnyStream(
-          streams, 1, &ready, static_cast<int>(kStopPollInterval.count()));
+      openni::VideoStream* streams[] = {&stream_, &colour_stream_};
+      int ready = -1;
+      wait = openni::OpenNI::waitForAnyStream(streams, colour_started_ ? 2 : 1, &ready,
+                                              static_cast<int>(kStopPollInterval.count()));
+      if (wait == openni::STATUS_TIME_OUT) continue;
+      if (wait != openni::STATUS_OK) break;
+      if (ready == 1)
+        read_colour_frame();
+      else
+        have_depth = true;
     }
-    if (wait != openni::STATUS_OK) {
+    if (!have_depth) {
       if (file_)
         return Status::bad_input(name_ + " (frame " + std::to_string(frames_read_) +
                                  "): OpenNI2 playback gave no frame within 2 s");
@@ -132,6 +184,7 @@ class OpenNI2Source : public Source {
     frame.sequence = file_ ? frames_read_ - 1 : static_cast<std::uint64_t>(ref_.getFrameIndex());
     frame.origin = name_;
     frame.T_world_camera_gt.reset();
+    pair_colour(frame, where);
     return Status::ok();
   }
 
@@ -144,8 +197,101 @@ class OpenNI2Source : public Source {
     return static_cast<std::size_t>(frames_total_);
   }
   bool live() const override { return !file_; }
+  std::string colour_origin() const override { return colour_camera_ ? colour_origin_ : ""; }
 
  private:
+  /// The colour stream, before the first read: created and started when the device (or file)
+  /// has one and colour is wanted; a failure leaves the source depth-only, with a warning.
+  void start_colour() {
+    colour_decided_ = true;
+    if (!colour_camera_ || !colour_wanted()) {
+      colour_camera_.reset();
+      return;
+    }
+    const auto give_up = [&](const std::string& why) {
+      spdlog::warn("{}: {}; continuing without colour", name_, why);
+      colour_camera_.reset();
+      colour_stream_.destroy();
+    };
+    if (colour_stream_.create(device_, openni::SENSOR_COLOR) != openni::STATUS_OK)
+      return give_up("cannot create the colour stream: " + openni_error());
+    if (!file_) {
+      if (const openni::SensorInfo* info = device_.getSensorInfo(openni::SENSOR_COLOR))
+        if (const openni::VideoMode* mode = choose_colour_mode(*info, colour_width_, colour_height_))
+          if (colour_stream_.setVideoMode(*mode) != openni::STATUS_OK)
+            spdlog::info("{}: keeping the driver's colour mode ({})", name_, openni_error());
+      if (colour_stream_.isPropertySupported(openni::STREAM_PROPERTY_MIRRORING))
+        colour_stream_.setMirroringEnabled(false);
+    }
+    const openni::VideoMode mode = colour_stream_.getVideoMode();
+    if (mode.getPixelFormat() != openni::PIXEL_FORMAT_RGB888)
+      return give_up("the colour stream is not RGB888 (pixel format " +
+                     std::to_string(static_cast<int>(mode.getPixelFormat())) + ")");
+    // The mode the driver settled on sets the colour camera's size, the stream its field of view.
+    colour_camera_ = colour_camera_for(mode.getResolutionX(), mode.getResolutionY(),
+                                       colour_stream_.getHorizontalFieldOfView(),
+                                       colour_stream_.getVerticalFieldOfView());
+    if (colour_stream_.start() != openni::STATUS_OK)
+      return give_up("cannot start the colour stream: " + openni_error());
+    colour_started_ = true;
+  }
+
+  /// The colour camera for colour frames of `width` x `height`: registered when the device
+  /// registers depth to colour, else nominal beside the depth camera.
+  ColourCamera colour_camera_for(int width, int height, double hfov, double vfov) const {
+    if (registered_) return registered_colour_camera(intrinsics_, width, height);
+    ColourCamera c = nominal_colour_camera(width, height, kNominalDepthToColourX);
+    c.intrinsics = intrinsics_from_fov(width, height, hfov, vfov);
+    return c;
+  }
+
+  /// Reads the colour frame waitForAnyStream reported into the pairer.
+  void read_colour_frame() {
+    if (colour_stream_.readFrame(&colour_ref_) != openni::STATUS_OK || !colour_ref_.isValid())
+      return;  // nothing to pair; a depth frame near it says so
+    const double timestamp_s = static_cast<double>(colour_ref_.getTimestamp()) * 1e-6;
+    const Status s = decode_colour_frame(
+        ColourPixelFormat::kRgb24, static_cast<const std::uint8_t*>(colour_ref_.getData()),
+        colour_ref_.getData() ? static_cast<std::size_t>(std::max(0, colour_ref_.getDataSize()))
+                              : 0,
+        colour_ref_.getWidth(), colour_ref_.getHeight(), colour_ref_.getStrideInBytes(),
+        pairer_.next_buffer(),
+        name_ + " (colour frame " + std::to_string(colour_ref_.getFrameIndex()) + ")");
+    colour_ref_.release();
+    if (s.is_ok())
+      pairer_.commit(timestamp_s);
+    else
+      pairer_.commit_failed(timestamp_s, s.message());
+  }
+
+  /// The depth frame just read gets its colour: the colour frames already there are taken in,
+  /// and while the colour stream is behind it waits up to kColourWaitMs for a nearer one (the
+  /// next depth frame waits in OpenNI2's queue meanwhile).
+  void pair_colour(DepthFrame& frame, const std::string& where) {
+    if (!colour_started_) {
+      frame.colour.resize(0, 0);
+      frame.colour_camera.reset();
+      frame.colour_error.clear();
+      frame.colour_timestamp_s = 0.0;
+      return;
+    }
+    openni::VideoStream* streams[] = {&colour_stream_};
+    int ready = -1;
+    while (openni::OpenNI::waitForAnyStream(streams, 1, &ready, 0) == openni::STATUS_OK)
+      read_colour_frame();
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::milliseconds(kColourWaitMs);
+    while (pairer_.worth_waiting(frame.timestamp_s) && !stop_requested() &&
+           std::chrono::steady_clock::now() < deadline) {
+      const openni::Status wait = openni::OpenNI::waitForAnyStream(streams, 1, &ready, 10);
+      if (wait == openni::STATUS_OK)
+        read_colour_frame();
+      else if (wait != openni::STATUS_TIME_OUT)
+        break;
+    }
+    pairer_.pair(frame, *colour_camera_, where);
+  }
+
   [[noreturn]] void fail(const std::string& what) const {
     if (file_) throw input_error(name_ + ": " + what);
     throw device_error(name_ + ": " + what);
@@ -188,18 +334,39 @@ class OpenNI2Source : public Source {
       fail("the depth stream is not in millimetre-like units (pixel format " +
            std::to_string(static_cast<int>(mode.getPixelFormat())) + ")");
     depth_scale_ = mode.getPixelFormat() == openni::PIXEL_FORMAT_DEPTH_1_MM ? 1000.0 : 10000.0;
-    intrinsics_.width = mode.getResolutionX();
-    intrinsics_.height = mode.getResolutionY();
-    const double hfov = stream_.getHorizontalFieldOfView();
-    const double vfov = stream_.getVerticalFieldOfView();
-    const bool fov_ok = std::isfinite(hfov) && std::isfinite(vfov) && hfov > 0.1 && hfov < 3.0 &&
-                        vfov > 0.1 && vfov < 3.0;
-    intrinsics_.fx = fov_ok ? intrinsics_.width / (2.0 * std::tan(hfov / 2.0))
-                            : 525.0 * intrinsics_.width / 640.0;
-    intrinsics_.fy = fov_ok ? intrinsics_.height / (2.0 * std::tan(vfov / 2.0)) : intrinsics_.fx;
-    intrinsics_.cx = (intrinsics_.width - 1) * 0.5;
-    intrinsics_.cy = (intrinsics_.height - 1) * 0.5;
+    // Colour: the device's (or the file's) colour sensor, when it offers RGB888. A live device
+    // that can register depth to colour does so (whether or not colour is fused, so that the
+    // depth's geometry never depends on fusion.colour), before the depth's field of view is read;
+    // a recording is as it was recorded.
+    const openni::SensorInfo* colour = device_.getSensorInfo(openni::SENSOR_COLOR);
+    const openni::VideoMode* colour_mode =
+        colour && !file_
+            ? choose_colour_mode(*colour, mode.getResolutionX(), mode.getResolutionY())
+            : nullptr;
+    const bool has_colour = colour && (file_ || colour_mode);
+    if (has_colour && !file_ &&
+        device_.isImageRegistrationModeSupported(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) &&
+        device_.setImageRegistrationMode(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) ==
+            openni::STATUS_OK)
+      registered_ = true;
+    if (has_colour && file_)
+      registered_ =
+          device_.getImageRegistrationMode() == openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR;
+
+    intrinsics_ = intrinsics_from_fov(mode.getResolutionX(), mode.getResolutionY(),
+                                      stream_.getHorizontalFieldOfView(),
+                                      stream_.getVerticalFieldOfView());
     if (!intrinsics_.valid()) fail("the depth stream reports no usable size");
+
+    if (has_colour) {
+      // A recording's colour size is known once its stream exists (start_colour()).
+      colour_width_ = colour_mode ? colour_mode->getResolutionX() : intrinsics_.width;
+      colour_height_ = colour_mode ? colour_mode->getResolutionY() : intrinsics_.height;
+      colour_camera_ = colour_camera_for(colour_width_, colour_height_, 0.0, 0.0);
+      colour_origin_ = registered_ ? "OpenNI2 (the device registers depth to colour)"
+                                   : "nominal (no depth-to-colour registration: the colour "
+                                     "stream's field of view, 25 mm beside the depth camera)";
+    }
 
     if (stream_.start() != openni::STATUS_OK)
       fail("cannot start the depth stream: " + openni_error());
@@ -207,6 +374,10 @@ class OpenNI2Source : public Source {
   }
 
   void release() {
+    colour_ref_.release();
+    if (colour_started_) colour_stream_.stop();
+    colour_started_ = false;
+    colour_stream_.destroy();
     ref_.release();
     if (started_) stream_.stop();
     started_ = false;
@@ -224,6 +395,18 @@ class OpenNI2Source : public Source {
   double depth_scale_ = 1000.0;
   Intrinsics intrinsics_;
   int frames_total_ = -1;
+  // Colour: the camera while the source delivers colour (set on open when there is a colour
+  // sensor, reset when colour is not wanted or fails to start).
+  std::optional<ColourCamera> colour_camera_;
+  std::string colour_origin_;
+  bool registered_ = false;
+  int colour_width_ = 0;
+  int colour_height_ = 0;
+  bool colour_decided_ = false;
+  bool colour_started_ = false;
+  openni::VideoStream colour_stream_;
+  openni::VideoFrameRef colour_ref_;
+  ColourPairer pairer_;
   std::size_t frames_read_ = 0;
   std::string lost_;
 };

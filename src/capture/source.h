@@ -68,6 +68,11 @@ class Source {
  protected:
   bool stop_requested() const { return stop_ != nullptr && stop_->load(); }
   bool colour_wanted() const { return colour_wanted_; }
+  /// For a source that wraps another: hands the stop flag and the colour choice on to `inner`.
+  void forward_settings(Source& inner) const {
+    inner.watch_stop(stop_);
+    inner.want_colour(colour_wanted_);
+  }
 
  private:
   const std::atomic<bool>* stop_ = nullptr;

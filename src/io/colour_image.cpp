@@ -2,6 +2,7 @@
 /// @brief Colour images through OpenCV's imgcodecs; PNG writing through write_png().
 #include "io/colour_image.h"
 
+#include <algorithm>
 #include <fstream>
 #include <iterator>
 #include <vector>
@@ -50,18 +51,13 @@ void convert(const cv::Mat& image, Image<Rgb8>& out) {
 
 }  // namespace
 
-Status read_colour_image(const std::string& path, Image<Rgb8>& out,
-                         std::optional<std::uint64_t> frame_index) {
-  const std::string where =
-      frame_index ? path + " (frame " + std::to_string(*frame_index) + ")" : path;
+Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rgb8>& out,
+                           const std::string& where) {
   try {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return Status::corrupt_frame(where + ": cannot open colour image");
-    thread_local std::vector<unsigned char> bytes;
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (in.bad()) return Status::corrupt_frame(where + ": cannot read colour image");
-    if (bytes.empty()) return Status::corrupt_frame(where + ": empty colour image");
-    const cv::Mat image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    if (bytes == nullptr || size == 0) return Status::corrupt_frame(where + ": empty colour image");
+    const cv::Mat encoded(1, static_cast<int>(std::min<std::size_t>(size, 0x7fffffff)), CV_8UC1,
+                          const_cast<std::uint8_t*>(bytes));
+    const cv::Mat image = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
     if (image.empty())
       return Status::corrupt_frame(where + ": not a colour image that can be decoded (JPEG, PNG)");
     const int channels = image.channels();
@@ -75,6 +71,22 @@ Status read_colour_image(const std::string& path, Image<Rgb8>& out,
     else
       return Status::corrupt_frame(where + ": pixels are neither 8- nor 16-bit integers");
     return Status::ok();
+  } catch (const std::exception& e) {
+    return Status::corrupt_frame(where + ": " + e.what());
+  }
+}
+
+Status read_colour_image(const std::string& path, Image<Rgb8>& out,
+                         std::optional<std::uint64_t> frame_index) {
+  const std::string where =
+      frame_index ? path + " (frame " + std::to_string(*frame_index) + ")" : path;
+  try {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return Status::corrupt_frame(where + ": cannot open colour image");
+    thread_local std::vector<unsigned char> bytes;
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (in.bad()) return Status::corrupt_frame(where + ": cannot read colour image");
+    return decode_colour_image(bytes.data(), bytes.size(), out, where);
   } catch (const std::exception& e) {
     return Status::corrupt_frame(where + ": " + e.what());
   }

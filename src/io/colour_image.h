@@ -3,6 +3,7 @@
 /// decode) as 8-bit RGB, and the lossless PNG that `record` writes.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -21,6 +22,12 @@ namespace aoscan {
 /// On failure `out`'s content is unspecified. Never throws.
 Status read_colour_image(const std::string& path, Image<Rgb8>& out,
                          std::optional<std::uint64_t> frame_index = std::nullopt);
+
+/// Decodes an encoded image held in memory (`size` bytes at `bytes`: a JPEG frame of a camera's
+/// MJPEG stream, a PNG, ...) into `out` as read_colour_image() does. Returns ok, or corrupt_frame
+/// "`where`: reason" for bytes no codec decodes or an unusable pixel type. Never throws.
+Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rgb8>& out,
+                           const std::string& where);
 
 /// Writes `image` as an 8-bit RGB PNG at `path` itself (wrap it in write_atomically() for an
 /// output). Throws like write_png().

@@ -30,13 +30,14 @@ std::string fakenect_env(const fs::path& dump) {
 }
 
 /// A fakenect dump of `frames` synthetic frames; empty path when fakenect is not installed.
-fs::path make_dump(const fs::path& dir, int frames) {
+fs::path make_dump(const fs::path& dir, int frames, const std::string& extra = "") {
   if (!fs::exists(fs::path(AOSCAN_FAKENECT_DIR) / "libfreenect.so")) return {};
   const fs::path rec = dir / "rec";
   const fs::path dump = dir / "dump";
-  CliRun r =
-      run("", "record 'synth:corner?frames=" + std::to_string(frames) + "' '" + rec.string() + "'",
-          dir);
+  CliRun r = run("",
+                 "record 'synth:corner?frames=" + std::to_string(frames) + extra + "' '" +
+                     rec.string() + "'",
+                 dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
   const fs::path tool = fs::path(AOSCAN_BINARY).parent_path() / "aoscan-fakenect-dump";
   if (!fs::exists(tool)) return {};
@@ -104,6 +105,128 @@ TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
   const CliRun limited =
       run(fakenect_env(dump), "record freenect '" + (dir / "five").string() + "' --frames 5", dir);
   EXPECT_EQ(limited.exit_code, 0) << limited.err;
+}
+
+/// A camera.json with a colour camera beside the depth camera (values chosen to be exact in
+/// binary and unlike every default).
+/// `depth_scale`: the source's raw units per metre (1000 for a Kinect, 5000 for synth:).
+fs::path write_camera(const fs::path& dir, int depth_scale = 1000) {
+  const fs::path path = dir / "calibrated.json";
+  std::ofstream(path) << R"({ "fx": 600.5, "fy": 601.25, "cx": 318.75, "cy": 241.5,
+    "depth_scale": )" << depth_scale << R"(,
+    "colour": { "width": 640, "height": 480, "fx": 530.5, "fy": 530.5, "cx": 320.25, "cy": 240.75,
+                "depth_to_colour": [1, 0, 0, -0.0234375, 0, 1, 0, 0.001953125, 0, 0, 1, 0] } })";
+  return path;
+}
+
+/// Checks that `json` (a recording's camera.json) is write_camera()'s camera.
+void expect_written_camera(const fs::path& json, int depth_scale = 1000) {
+  const auto cam = nlohmann::json::parse(read_text(json));
+  EXPECT_EQ(cam["width"].get<int>(), 640);
+  EXPECT_EQ(cam["fx"].get<double>(), 600.5);
+  EXPECT_EQ(cam["fy"].get<double>(), 601.25);
+  EXPECT_EQ(cam["cx"].get<double>(), 318.75);
+  EXPECT_EQ(cam["cy"].get<double>(), 241.5);
+  EXPECT_EQ(cam["depth_scale"].get<double>(), depth_scale);
+  ASSERT_TRUE(cam.contains("colour")) << cam.dump();
+  EXPECT_EQ(cam["colour"]["fx"].get<double>(), 530.5);
+  EXPECT_EQ(cam["colour"]["cx"].get<double>(), 320.25);
+  EXPECT_EQ(cam["colour"]["depth_to_colour"][3].get<double>(), -0.0234375);
+  EXPECT_EQ(cam["colour"]["depth_to_colour"][7].get<double>(), 0.001953125);
+}
+
+int count_entries(const fs::path& list) {
+  std::ifstream in(list);
+  int n = 0;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') ++n;
+  return n;
+}
+
+TEST(CameraCli, RecordWithCameraFileWritesThatCameraIntoTheRecording) {
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("record_camera");
+  const fs::path camera = write_camera(dir, 5000);
+  const fs::path out = dir / "rec";
+  const CliRun r = run("", "record 'synth:corner?frames=3&colour=on' '" + out.string() +
+                               "' --camera '" + camera.string() + "'",
+                       dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_written_camera(out / "camera.json", 5000);
+  EXPECT_EQ(count_entries(out / "rgb.txt"), 3);
+  // The recording replays with that camera.
+  const CliRun replay = run("", "replay '" + out.string() + "' --headless --no-progress --out '" +
+                                    (dir / "out").string() + "'",
+                            dir);
+  EXPECT_EQ(replay.exit_code, 0) << replay.err;
+  const auto stats = nlohmann::json::parse(read_text(dir / "out" / "stats.json"));
+  EXPECT_EQ(stats["calibration"]["fx"].get<double>(), 600.5);
+  EXPECT_EQ(stats["frames_with_colour"].get<int>(), 3);
+}
+
+TEST(CameraCli, BadCameraFileIsExitTwoNamingItBeforeAnythingIsOpened) {
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("bad_camera");
+  const fs::path bad = dir / "bad.json";
+  std::ofstream(bad) << R"({ "fx": 600, "fy": 600, "cx": 320, "cy": 240 })";
+  const CliRun r = run("", "record 'synth:corner?frames=2' '" + (dir / "rec").string() +
+                               "' --camera '" + bad.string() + "'",
+                       dir);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(r.err, "aoscan: error: --camera " + bad.string() +
+                       ": missing key 'depth_scale'\n");
+  EXPECT_FALSE(fs::exists(dir / "rec"));
+  // scan reads it before the camera: exit 2, not the missing camera's 4.
+  const fs::path missing = dir / "missing.json";
+  const CliRun s = run("", "scan --headless --device freenect:5 --camera '" + missing.string() +
+                               "' --out '" + (dir / "o").string() + "'",
+                       dir);
+  EXPECT_EQ(s.exit_code, 2) << s.err;
+  EXPECT_EQ(s.err, "aoscan: error: --camera " + missing.string() + ": cannot open camera file\n");
+  // A camera of another size than the source's is refused too.
+  const fs::path small = dir / "small.json";
+  std::ofstream(small) << R"({ "width": 320, "height": 240, "fx": 300, "fy": 300, "cx": 160,
+                               "cy": 120, "depth_scale": 1000 })";
+  const CliRun z = run("", "record 'synth:corner?frames=2' '" + (dir / "rec").string() +
+                               "' --camera '" + small.string() + "'",
+                       dir);
+  EXPECT_EQ(z.exit_code, 2) << z.err;
+  EXPECT_NE(z.err.find(small.string() + ": a 320x240 camera, but synth:corner?frames=2 delivers "
+                                         "640x480 depth"),
+            std::string::npos)
+      << z.err;
+}
+
+TEST(CameraCli, KinectColourIsRecordedAndScannedWithTheCameraFile) {
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("kinect_colour");
+  const fs::path dump = make_dump(dir, 6, "&colour=on");
+  if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
+  const fs::path camera = write_camera(dir);
+  const fs::path out = dir / "kinect";
+  const CliRun r = run(fakenect_env(dump),
+                       "record freenect '" + out.string() + "' --camera '" + camera.string() + "'",
+                       dir);
+  EXPECT_EQ(r.exit_code, 4) << r.err;  // the dump's end is the unplug
+  EXPECT_EQ(count_entries(out / "depth.txt"), 6);
+  EXPECT_EQ(count_entries(out / "rgb.txt"), 6);  // every RGB frame paired with its depth
+  expect_written_camera(out / "camera.json");
+  // The recorded colour is the synthetic scene's, frame for frame.
+  EXPECT_EQ(read_text(out / "rgb" / "000003.png"), read_text(dir / "rec" / "rgb" / "000003.png"));
+
+  const CliRun s = run(fakenect_env(dump),
+                       "scan --device freenect --headless --camera '" + camera.string() +
+                           "' --out '" + (dir / "out").string() + "'",
+                       dir);
+  EXPECT_EQ(s.exit_code, 4) << s.err;
+  const auto stats = nlohmann::json::parse(read_text(dir / "out" / "stats.json"));
+  EXPECT_EQ(stats["frames_read"].get<int>(), 6);
+  EXPECT_EQ(stats["frames_colour_skipped"].get<int>(), 0);
+  EXPECT_EQ(stats["calibration"]["fx"].get<double>(), 600.5);
+  EXPECT_NE(stats["calibration"]["origin"].get<std::string>().find(camera.string()),
+            std::string::npos);
+  EXPECT_NE(stats["calibration"]["colour_origin"].get<std::string>().find(camera.string()),
+            std::string::npos);
 }
 
 TEST(CameraCli, NoCameraAndNonCameraNodesAreExitFourWithOneLine) {

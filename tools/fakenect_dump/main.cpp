@@ -38,6 +38,10 @@ int main(int argc, char** argv) {
                  dir.c_str());
     if (stats.frames_corrupt > 0)
       std::fprintf(stderr, " (%zu unreadable skipped)", stats.frames_corrupt);
+    if (stats.colour_frames_written > 0)
+      std::fprintf(stderr, " with %zu RGB frames", stats.colour_frames_written);
+    if (stats.colour_frames_skipped > 0)
+      std::fprintf(stderr, " (%zu colour frames not 640x480 left out)", stats.colour_frames_skipped);
     if (stats.pixels_out_of_range > 0)
       std::fprintf(stderr, " (%zu depths outside the Kinect's range written invalid)",
                    stats.pixels_out_of_range);
