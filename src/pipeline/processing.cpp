@@ -12,6 +12,7 @@
 #include "core/log.h"
 #include "fusion/preprocess/bilateral.h"
 #include "fusion/preprocess/pyramid.h"
+#include "io/gltf.h"
 #include "io/ply.h"
 #include "pipeline/pipeline_impl.h"
 #include "pipeline/view_products.h"
@@ -84,9 +85,10 @@ nlohmann::json ProcessingStats::to_json() const {
           {"frames_colour_skipped", frames_colour_skipped}};
 }
 
-Processing::Processing(const Config& config, std::string out_dir)
+Processing::Processing(const Config& config, std::string out_dir, MeshWriteOptions mesh_options)
     : config_(config),
       out_dir_(std::move(out_dir)),
+      mesh_options_(mesh_options),
       reconstruction_(config),
       ao_shedder_(config.ao.live_max_interval),
       grid_(config.ao) {}
@@ -223,7 +225,8 @@ void Processing::write_requested_outputs(FrameWork& frame) {
   const std::filesystem::path dir(out_dir_);
   try {
     apply_grid_ao(grid_, config_.ao.mesh_cell_factor, *frame.export_mesh);
-    write_ply((dir / "mesh.ply").string(), *frame.export_mesh);
+    write_ply((dir / "mesh.ply").string(), *frame.export_mesh, mesh_options_);
+    write_glb((dir / "mesh.glb").string(), *frame.export_mesh, mesh_options_);
     write_trajectory((dir / "trajectory.txt").string(), *frame.export_trajectory);
     ++outputs_written_;
     spdlog::info("outputs written at frame {}: {} vertices, {} poses", frame.raw.sequence,

@@ -21,6 +21,7 @@
 #include "core/mesh.h"
 #include "fusion/preprocess/preprocess.h"
 #include "fusion/reconstruction.h"
+#include "io/mesh_write.h"
 #include "io/tum.h"
 #include "io/vdb.h"
 #include "pipeline/ao_load_shedder.h"
@@ -130,8 +131,10 @@ struct LoadedSession;
 /// Owns the reconstruction and what the stages collect; hands out the stage functions.
 class Processing {
  public:
-  /// `out_dir`: where the `s` command (request_write_outputs) writes mesh.ply and trajectory.txt.
-  explicit Processing(const Config& config, std::string out_dir = "aoscan-out");
+  /// `out_dir`: where the `s` command (request_write_outputs) writes mesh.ply, mesh.glb and
+  /// trajectory.txt, the meshes as `mesh_options` say (--bake-ao), as the final export does.
+  explicit Processing(const Config& config, std::string out_dir = "aoscan-out",
+                      MeshWriteOptions mesh_options = {});
 
   /// Continues a saved session (before the chain starts): its TSDF, MVAO grid, keyframes and
   /// trajectory; tracking starts lost, so the first frames are relocalised against its
@@ -147,8 +150,8 @@ class Processing {
   void request_reset() { reset_requested_.store(true); }
   /// Pauses / resumes integration: frames are still tracked and counted (thread-safe).
   void set_paused(bool paused) { paused_.store(paused); }
-  /// Asks for mesh.ply and trajectory.txt in out_dir now (thread-safe): the track stage extracts
-  /// the surface after its next frame, the mvao stage gives it AO and writes both files.
+  /// Asks for mesh.ply, mesh.glb and trajectory.txt in out_dir now (thread-safe): the track
+  /// stage extracts the surface after its next frame, the mvao stage gives it AO and writes them.
   void request_write_outputs() { write_requested_.store(true); }
   /// While enabled the mvao stage fills FrameWork::mvao for the view consumers, for every
   /// `every`-th frame of the source (thread-safe).
@@ -205,6 +208,7 @@ class Processing {
 
   Config config_;
   std::string out_dir_;
+  MeshWriteOptions mesh_options_;
   /// Raycasts in flight (tracking reference + downstream); declared before reconstruction_,
   /// which holds one of them, so that it outlives every pointer it handed out.
   ObjectPool<RaycastResult> raycasts_;

@@ -491,7 +491,7 @@ SessionResult run_session(Source& source, const RunOptions& options,
   tbb::global_control thread_budget(tbb::global_control::max_allowed_parallelism,
                                     static_cast<std::size_t>(result.session.threads));
 
-  Processing processing(options.config, options.out_dir);
+  Processing processing(options.config, options.out_dir, MeshWriteOptions{options.bake_ao});
   if (resumed) processing.restore(*resumed);
   const ChainSetup chain = build_stages(options, processing);
   const bool stopped =

@@ -17,7 +17,7 @@ enum class ViewCommand {
   kResetModel,         ///< `r`: clear the TSDF and the MVAO grid, start over from the next frame
   kPauseIntegration,   ///< `space` (when running): keep tracking and showing, stop integrating
   kResumeIntegration,  ///< `space` (when paused)
-  kWriteOutputs,       ///< `s`: write mesh.ply, trajectory.txt, stats.json now
+  kWriteOutputs,       ///< `s`: write mesh.ply, mesh.glb, trajectory.txt now
   kQuit,               ///< `q`, `Esc` or the window closed: stop the run, writing the outputs
 };
 

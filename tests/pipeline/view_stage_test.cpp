@@ -442,10 +442,11 @@ TEST(SessionCommands, WriteOutputsNowWritesTheMeshMidRun) {
   ScriptedSource source(kCorner, commands);
   const fs::path out = scratch.path("write_now");
   source.script_ = {{3, ViewCommand::kWriteOutputs}};
-  // Frame 8 is read only once mesh.ply and trajectory.txt exist: they came from `s`.
+  // Frame 8 is read only once mesh.ply, mesh.glb and trajectory.txt exist: they came from `s`.
   source.wait_at_ = 8;
   source.wait_for_ = [&out] {
-    return fs::exists(out / "mesh.ply") && fs::exists(out / "trajectory.txt");
+    return fs::exists(out / "mesh.ply") && fs::exists(out / "mesh.glb") &&
+           fs::exists(out / "trajectory.txt");
   };
   const SessionResult r = run_session(source, command_session(out, commands), stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
