@@ -193,6 +193,31 @@ void Reconstruction::reset() {
   relocaliser_.database().clear();
 }
 
+void Reconstruction::colour_image(const RaycastResult& raycast, Image<Rgb8>& out) const {
+  const Image<Eigen::Vector3f>& vertices = raycast.maps.vertices;
+  if (colour_.block_count() == 0 || vertices.empty()) {
+    out.resize(0, 0);
+    return;
+  }
+  out.resize(vertices.width(), vertices.height());
+  const Eigen::Matrix3f R = raycast.T_world_camera.rotation().cast<float>();
+  const Eigen::Vector3f t = raycast.T_world_camera.translation().cast<float>();
+  tbb::parallel_for(tbb::blocked_range<int>(0, vertices.height(), 8),
+                    [&](const tbb::blocked_range<int>& rows) {
+                      for (int y = rows.begin(); y != rows.end(); ++y) {
+                        const Eigen::Vector3f* v = vertices.row(y);
+                        Rgb8* dst = out.row(y);
+                        for (int x = 0; x < vertices.width(); ++x) {
+                          if (v[x].isZero(0.0f)) {
+                            dst[x] = Rgb8{};
+                          } else if (!colour_.sample(volume_, R * v[x] + t, dst[x])) {
+                            dst[x] = kUnobservedColour;
+                          }
+                        }
+                      }
+                    });
+}
+
 TriangleMesh Reconstruction::extract_mesh(std::size_t* colour_unobserved) const {
   TriangleMesh mesh =
       aoscan::extract_mesh(volume_, static_cast<float>(config_.fusion.mesh_min_weight));

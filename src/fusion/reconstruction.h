@@ -91,6 +91,14 @@ class Reconstruction {
   /// when any colour was fused (ColourVolume::sample(); a vertex without a coloured voxel around
   /// it is mid grey and counted in `colour_unobserved`, when given).
   TriangleMesh extract_mesh(std::size_t* colour_unobserved = nullptr) const;
+  /// The fused colour of the surface seen at each pixel of `raycast` (a raycast of this volume,
+  /// e.g. the one process() just made; camera-frame vertices at raycast.T_world_camera): the
+  /// colour sampled at the pixel's world point as extract_mesh() samples a vertex, mid grey where
+  /// no coloured voxel is near, black where the pixel has no surface. `out` gets the maps' size
+  /// (its buffer reused), or is emptied when no colour has been fused (none in the run, or
+  /// fusion.colour off). Reads the colour volume: call it on the thread that runs process().
+  /// Multi-threaded over rows; the result does not depend on the thread count.
+  void colour_image(const RaycastResult& raycast, Image<Rgb8>& out) const;
   /// The current tracking reference (null before the first frame and after reset()).
   std::shared_ptr<const RaycastResult> model() const { return model_; }
   /// Frames not fused because tracking was lost (or the model had no depth yet).

@@ -160,6 +160,17 @@ Status Processing::track(FrameWork& frame) {
                      : "from keyframe " +
                            std::to_string(frame.fusion.relocalisation.candidate_keyframe),
                  frames_tracking_lost_ - lost_frames_before_);
+  // A view consumer wants this frame (a window that caught up, or snapshots): its colour image
+  // is made here, by the colour volume's writer, from the raycast just made. Nothing is computed
+  // without a consumer.
+  frame.view_candidate =
+      view_products_.load() &&
+      frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0 &&
+      (!view_demand_ || view_demand_(view_products_built_.load()));
+  if (frame.view_candidate && frame.fusion.status != TrackingStatus::kLost)
+    reconstruction_.colour_image(*raycast, frame.model_colour);
+  else
+    frame.model_colour.resize(0, 0);
   if (frame.fusion.status == TrackingStatus::kLost) {
     ++frames_tracking_lost_;
     frame.raycast.reset();
@@ -196,10 +207,11 @@ Status Processing::ssao(FrameWork& frame) {
 
 Status Processing::mvao(FrameWork& frame) {
   if (frame.model_reset) grid_.clear();  // the old grid lies in the old model's world frame
-  frame.view_products =
-      view_products_.load() &&
-      frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0 &&
-      (!view_demand_ || view_demand_(view_products_built_));
+  // Only the track stage's candidates (which have their colour image), and with a demand only
+  // while the consumer is still caught up: it stays so from the candidate's track stage until a
+  // product is built, so the first candidate after a catch-up is built and later ones are not.
+  frame.view_products = frame.view_candidate && view_products_.load() &&
+                        (!view_demand_ || view_demand_(view_products_built_.load()));
   if (frame.view_products) ++view_products_built_;
   Status status = Status::ok();
   // The view image reads the cells of the pixels just integrated through their slots when the

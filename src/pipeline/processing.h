@@ -51,6 +51,14 @@ struct FrameWork {
   /// Only while a view consumer exists: AO from the MVAO grid at each raycast pixel's world point,
   /// in [0, 1], NaN = unobserved cell or no surface (filled by the mvao stage after integrating).
   Image<float> mvao;
+  /// The track stage found a view consumer wanting this frame (set_view_products(), and with a
+  /// demand the consumer caught up): it filled model_colour; the mvao stage decides
+  /// view_products among such frames only.
+  bool view_candidate = false;
+  /// Only for view candidates: the fused colour of the surface at each raycast pixel
+  /// (Reconstruction::colour_image(), computed by the track stage, the colour's writer, right
+  /// after the raycast); empty when the run has no fused colour or the frame was not tracked.
+  Image<Rgb8> model_colour;
   /// The mvao stage built this frame's view products (mvao): the view stage shows only such frames.
   bool view_products = false;
   /// `s` (write outputs now): the surface extracted by the track stage after this frame (world
@@ -153,15 +161,18 @@ class Processing {
   /// Asks for mesh.ply, mesh.glb and trajectory.txt in out_dir now (thread-safe): the track
   /// stage extracts the surface after its next frame, the mvao stage gives it AO and writes them.
   void request_write_outputs() { write_requested_.store(true); }
-  /// While enabled the mvao stage fills FrameWork::mvao for the view consumers, for every
-  /// `every`-th frame of the source (thread-safe).
+  /// While enabled the track stage fills FrameWork::model_colour and the mvao stage
+  /// FrameWork::mvao for the view consumers, for every `every`-th frame of the source
+  /// (thread-safe). Disabled (the default, a headless run without snapshots) neither is computed.
   void set_view_products(bool enabled, int every = 1) {
     view_products_every_.store(every < 1 ? 1 : every);
     view_products_.store(enabled);
   }
-  /// With a demand set (before the chain starts), the mvao stage builds the view products of a
-  /// frame only when `ready(products built so far)` says the consumer has caught up: the window
-  /// is shown as often as it can draw, and no product is made that it would never show.
+  /// With a demand set (before the chain starts), the view products of a frame are built only
+  /// when `ready(products built so far)` says the consumer has caught up: the window is shown as
+  /// often as it can draw, and no product is made that it would never show. It is asked by the
+  /// track stage (a candidate gets its colour image) and again by the mvao stage (which builds
+  /// the products of a candidate): it must be thread-safe.
   void set_view_demand(std::function<bool(std::uint64_t)> ready) {
     view_demand_ = std::move(ready);
   }
@@ -227,7 +238,7 @@ class Processing {
   std::atomic<bool> view_products_{false};
   std::atomic<int> view_products_every_{1};
   std::function<bool(std::uint64_t)> view_demand_;
-  std::uint64_t view_products_built_ = 0;  ///< by the mvao stage
+  std::atomic<std::uint64_t> view_products_built_{0};  ///< by the mvao stage (read by track)
   std::atomic<std::size_t> model_resets_{0};
   std::atomic<std::size_t> outputs_written_{0};
   mutable std::atomic<std::size_t> frames_without_depth_{0};  ///< counted by the preprocess stage

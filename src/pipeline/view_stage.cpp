@@ -44,6 +44,7 @@ void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
   view.normals = raycast ? raycast->maps.normals : kNoVector;
   view.ssao = frame.ssao;
   view.mvao = frame.mvao;
+  view.colour = frame.model_colour;
   view.raw_depth_m = frame.pre.depth_m;
   if (frame.fusion.status == TrackingStatus::kLost)
     view.tracking_state = kTrackingLostState;

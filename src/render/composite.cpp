@@ -1,6 +1,5 @@
 /// @file composite.cpp
-/// @brief CPU shading of the views (the shaders' reference), the orbit point splatter and the RGB
-/// PNG writer.
+/// @brief CPU shading of the views (the shaders' reference) and the orbit point splatter.
 #include "render/composite.h"
 
 #include <algorithm>
@@ -33,6 +32,11 @@ bool has_surface(float depth_m, const Eigen::Vector3f& n) {
   return depth_m > 0.0f && (n.x() != 0.0f || n.y() != 0.0f || n.z() != 0.0f);
 }
 
+/// The AO of the model views: clamped to [0, 1]; unobserved (NaN or negative) counts as open.
+float open_if_unobserved(float mvao) {
+  return mvao >= 0.0f ? std::min(mvao, 1.0f) : 1.0f;
+}
+
 float diffuse(const Eigen::Vector3f& n, const Eigen::Vector3f& to_light, float ambient) {
   const float lambert =
       std::max(0.0f, n.x() * to_light.x() + n.y() * to_light.y() + n.z() * to_light.z());
@@ -59,6 +63,12 @@ const char* view_name(View view) {
       return "shaded";
     case View::kSsao:
       return "ssao";
+    case View::kMvao:
+      return "mvao";
+    case View::kColour:
+      return "colour";
+    case View::kColourMvao:
+      return "colour_mvao";
     case View::kNormals:
       return "normals";
     case View::kDepth:
@@ -81,13 +91,30 @@ std::uint8_t to_u8(float c) {
 
 Rgb8 shade_mvao(float depth_m, const Eigen::Vector3f& n, float mvao, const ViewStyle& style) {
   if (!has_surface(depth_m, n)) return style.background;
-  const float ao = mvao >= 0.0f ? std::min(mvao, 1.0f) : 1.0f;  // NaN: unobserved
-  return grey(ao * diffuse(n, style.to_light_camera, style.ambient));
+  return grey(open_if_unobserved(mvao) * diffuse(n, style.to_light_camera, style.ambient));
 }
 
 Rgb8 shade_ssao(float ssao, const ViewStyle& style) {
   if (!(ssao >= 0.0f)) return style.background;
   return grey(std::min(ssao, 1.0f));
+}
+
+Rgb8 shade_mvao_grey(float depth_m, const Eigen::Vector3f& n, float mvao, const ViewStyle& style) {
+  if (!has_surface(depth_m, n)) return style.background;
+  return shade_ssao(mvao, style);
+}
+
+Rgb8 shade_colour(float depth_m, const Eigen::Vector3f& n, Rgb8 colour, const ViewStyle& style) {
+  return has_surface(depth_m, n) ? colour : style.background;
+}
+
+Rgb8 shade_colour_mvao(float depth_m, const Eigen::Vector3f& n, Rgb8 colour, float mvao,
+                       const ViewStyle& style) {
+  if (!has_surface(depth_m, n)) return style.background;
+  const float ao = open_if_unobserved(mvao);
+  return {to_u8(static_cast<float>(colour.r) / 255.0f * ao),
+          to_u8(static_cast<float>(colour.g) / 255.0f * ao),
+          to_u8(static_cast<float>(colour.b) / 255.0f * ao)};
 }
 
 Rgb8 shade_normal(float depth_m, const Eigen::Vector3f& n, const ViewStyle& style) {
@@ -206,6 +233,9 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
   const int model = image_scale(frame.depth_m, width, height);
   const int normals = model > 0 && image_scale(frame.normals, width, height) == model ? model : 0;
   const int mvao = model > 0 && image_scale(frame.mvao, width, height) == model ? model : 0;
+  const int colour = model > 0 && image_scale(frame.colour, width, height) == model ? model : 0;
+  // Without a colour image the colour views show the shaded view.
+  if ((view == View::kColour || view == View::kColourMvao) && colour == 0) view = View::kShaded;
   const int ssao = image_scale(frame.ssao, width, height);
   const int raw = image_scale(frame.raw_depth_m, width, height);
   const Image<float>& depth_source = raw > 0 ? frame.raw_depth_m : frame.depth_m;
@@ -223,6 +253,17 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
           break;
         case View::kSsao:
           dst[x] = shade_ssao(ssao > 0 ? frame.ssao(x / ssao, y / ssao) : kNoData, style);
+          break;
+        case View::kMvao:
+          dst[x] =
+              shade_mvao_grey(d, n, mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
+          break;
+        case View::kColour:
+          dst[x] = shade_colour(d, n, frame.colour(x / colour, y / colour), style);
+          break;
+        case View::kColourMvao:
+          dst[x] = shade_colour_mvao(d, n, frame.colour(x / colour, y / colour),
+                                     mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
           break;
         case View::kNormals:
           dst[x] = shade_normal(d, n, style);

@@ -7,6 +7,14 @@
 ///              (unobserved, i.e. NaN or negative, counts as 1); no surface where depth_m <= 0 or
 ///              the normal is zero.
 ///  - kSsao:    grey = clamp(ssao, 0, 1); no data where the SSAO is NaN or negative.
+///  - kMvao:    grey = clamp(mvao, 0, 1), no diffuse term; no surface as kShaded; no data where
+///              the MVAO is NaN or negative, i.e. its grid cell was never observed (like kSsao's
+///              no data; kShaded shades it as open).
+///  - kColour:  rgb = the fused colour (ViewFrame::colour); no surface as kShaded.
+///  - kColourMvao: rgb = colour * ao per channel, ao as in kShaded (unobserved counts as 1), no
+///              diffuse term (the fused colour already carries the scene's real shading).
+///              Both colour views show kShaded's grey when the frame has no colour image (a run
+///              without colour).
 ///  - kNormals: rgb = 0.5 + 0.5 * (n.x, -n.y, -n.z) (a camera-facing normal is (128, 128, 255)).
 ///  - kDepth:   raw depth (the raycast depth when no raw depth is published) through a 5-stop
 ///              blue-cyan-green-yellow-red map over [depth_min_m, depth_max_m].
@@ -72,6 +80,13 @@ std::uint8_t to_u8(float c);
 Rgb8 shade_mvao(float depth_m, const Eigen::Vector3f& normal_camera, float mvao,
                 const ViewStyle& style);
 Rgb8 shade_ssao(float ssao, const ViewStyle& style);
+/// kMvao: the grey of the AO at a pixel with a surface (kSsao's formula on the MVAO image).
+Rgb8 shade_mvao_grey(float depth_m, const Eigen::Vector3f& normal_camera, float mvao,
+                     const ViewStyle& style);
+Rgb8 shade_colour(float depth_m, const Eigen::Vector3f& normal_camera, Rgb8 colour,
+                  const ViewStyle& style);
+Rgb8 shade_colour_mvao(float depth_m, const Eigen::Vector3f& normal_camera, Rgb8 colour,
+                       float mvao, const ViewStyle& style);
 Rgb8 shade_normal(float depth_m, const Eigen::Vector3f& normal_camera, const ViewStyle& style);
 Rgb8 shade_depth(float depth_m, const ViewStyle& style);
 

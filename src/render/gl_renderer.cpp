@@ -40,9 +40,15 @@ GLuint compile(const GlApi& gl, GLenum type, const std::string& file, const std:
 
 const std::vector<ProgramSpec>& program_specs() {
   static const std::vector<ProgramSpec> specs = {
-      {"shaded", "fullscreen.vert", "shaded.frag"},   {"ssao", "fullscreen.vert", "ssao.frag"},
-      {"normals", "fullscreen.vert", "normals.frag"}, {"depth", "fullscreen.vert", "depth.frag"},
-      {"overlay", "fullscreen.vert", "overlay.frag"}, {"orbit", "points.vert", "points.frag"},
+      {"shaded", "fullscreen.vert", "shaded.frag"},
+      {"ssao", "fullscreen.vert", "ssao.frag"},
+      {"mvao", "fullscreen.vert", "mvao.frag"},
+      {"colour", "fullscreen.vert", "colour.frag"},
+      {"colour_mvao", "fullscreen.vert", "colour.frag"},  // u_with_ao = 1
+      {"normals", "fullscreen.vert", "normals.frag"},
+      {"depth", "fullscreen.vert", "depth.frag"},
+      {"overlay", "fullscreen.vert", "overlay.frag"},
+      {"orbit", "points.vert", "points.frag"},
   };
   return specs;
 }
@@ -195,14 +201,23 @@ void GlViewRenderer::upload(const ViewFrame& frame, std::optional<View> only) {
   // Each texture at its image's own size (the shaders map window pixels to texels through
   // textureSize); the depth, normal and MVAO textures share the depth's size, as the shaded view
   // reads them at one texel. What is missing is a texture of no-data at that size (1x1 alone).
+  // The colour views fall back to the shaded view without colour: they need what it needs.
   const int model = image_scale(frame.depth_m, width, height);
   const int model_w = model > 0 ? frame.depth_m.width() : 1;
   const int model_h = model > 0 ? frame.depth_m.height() : 1;
-  if (needs({View::kShaded, View::kNormals}))
+  if (needs({View::kShaded, View::kMvao, View::kNormals, View::kColour, View::kColourMvao}))
     upload_float(kDepth, model > 0 ? &frame.depth_m : nullptr, 0.0f, model_w, model_h);
-  if (needs({View::kShaded})) {
+  if (needs({View::kShaded, View::kMvao, View::kColour, View::kColourMvao})) {
     const bool mvao_ok = model > 0 && image_scale(frame.mvao, width, height) == model;
     upload_float(kMvao, mvao_ok ? &frame.mvao : nullptr, -1.0f, model_w, model_h);
+  }
+  if (needs({View::kColour, View::kColourMvao})) {
+    has_colour_ = model > 0 && image_scale(frame.colour, width, height) == model;
+    if (has_colour_) {
+      static_assert(sizeof(Rgb8) == 3, "colour rows are uploaded as packed RGB");
+      set_texture(kColour, GL_RGB8, GL_RGB, GL_UNSIGNED_BYTE, model_w, model_h,
+                  frame.colour.data());
+    }
   }
   if (needs({View::kSsao})) {
     const bool ssao_ok = image_scale(frame.ssao, width, height) > 0;
@@ -215,7 +230,7 @@ void GlViewRenderer::upload(const ViewFrame& frame, std::optional<View> only) {
       upload_float(kRawDepth, &frame.raw_depth_m, 0.0f, frame.raw_depth_m.width(),
                    frame.raw_depth_m.height());
   }
-  if (needs({View::kShaded, View::kNormals})) {
+  if (needs({View::kShaded, View::kMvao, View::kNormals, View::kColour, View::kColourMvao})) {
     staging_.assign(static_cast<std::size_t>(model_w) * model_h * 3, 0.0f);
     if (model > 0 && image_scale(frame.normals, width, height) == model) {
       const Eigen::Vector3f* src = frame.normals.data();
@@ -266,6 +281,8 @@ void GlViewRenderer::draw(View view, const GlRect& rect, const ViewStyle& style,
   const GlApi& gl = *gl_;
   gl.Viewport(rect.x, rect.y, rect.width, rect.height);
   gl.Disable(GL_BLEND);
+  const bool colour_view = view == View::kColour || view == View::kColourMvao;
+  if (colour_view && !has_colour_) view = View::kShaded;  // a frame without colour
   const GLuint program = programs_.at(view == View::kOrbit ? "orbit" : view_name(view));
   gl.UseProgram(program);
   const auto uniform = [&](const char* name) { return gl.GetUniformLocation(program, name); };
@@ -307,6 +324,19 @@ void GlViewRenderer::draw(View view, const GlRect& rect, const ViewStyle& style,
       break;
     case View::kSsao:
       bind_texture(program, "u_ssao", kSsao, 0);
+      break;
+    case View::kMvao:
+      bind_texture(program, "u_depth", kDepth, 0);
+      bind_texture(program, "u_normals", kNormals, 1);
+      bind_texture(program, "u_ao", kMvao, 2);
+      break;
+    case View::kColour:
+    case View::kColourMvao:
+      bind_texture(program, "u_depth", kDepth, 0);
+      bind_texture(program, "u_normals", kNormals, 1);
+      bind_texture(program, "u_colour", kColour, 2);
+      bind_texture(program, "u_ao", kMvao, 3);
+      gl.Uniform1i(uniform("u_with_ao"), view == View::kColourMvao ? 1 : 0);
       break;
     case View::kNormals:
       bind_texture(program, "u_depth", kDepth, 0);

@@ -72,7 +72,7 @@ class GlViewRenderer {
   int frame_height() const { return frame_height_; }
 
  private:
-  enum Texture { kDepth, kNormals, kSsao, kMvao, kRawDepth, kOverlay, kTextureCount };
+  enum Texture { kDepth, kNormals, kSsao, kMvao, kColour, kRawDepth, kOverlay, kTextureCount };
   void release();
   void upload_float(Texture texture, const Image<float>* image, float no_data, int width,
                     int height);
@@ -92,6 +92,7 @@ class GlViewRenderer {
   const TriangleMesh* uploaded_surface_ = nullptr;
   std::shared_ptr<const TriangleMesh> surface_;  ///< keeps uploaded_surface_ alive
   bool has_raw_depth_ = false;
+  bool has_colour_ = false;  ///< the colour views draw the colour; else they draw shaded
   int frame_width_ = 0;
   int frame_height_ = 0;
   std::vector<float> staging_;

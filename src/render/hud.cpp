@@ -121,8 +121,11 @@ const std::uint8_t* font_glyph(char c) {
 
 std::vector<std::string> hud_lines(const ViewFrame* frame, View view, double render_fps) {
   std::vector<std::string> lines;
-  lines.push_back(std::string("view ") + view_name(view) + " (v)   draw " +
-                  format("%.0f fps", render_fps));
+  // The colour views of a frame without colour show the shaded view: say so.
+  const bool no_colour = frame && frame->colour.empty() &&
+                         (view == View::kColour || view == View::kColourMvao);
+  lines.push_back(std::string("view ") + view_name(view) + (no_colour ? " (no colour: shaded)" : "") +
+                  " (v)   draw " + format("%.0f fps", render_fps));
   if (!frame) {
     lines.push_back("waiting for the first frame");
     return lines;

@@ -18,8 +18,9 @@ namespace aoscan {
 struct SnapshotOptions {
   std::string dir;            ///< created if missing
   std::uint64_t every_n = 1;  ///< write every N-th offered frame (the first one included)
-  std::vector<View> views = {View::kShaded, View::kSsao, View::kNormals, View::kDepth,
-                             View::kOrbit};
+  /// Every view, in the `v` cycle's order.
+  std::vector<View> views = {View::kShaded,     View::kSsao,    View::kMvao,  View::kColour,
+                             View::kColourMvao, View::kNormals, View::kDepth, View::kOrbit};
   ViewStyle style;
 };
 

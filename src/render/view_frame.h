@@ -1,6 +1,7 @@
 /// @file view_frame.h
 /// @brief What the live view and the snapshots show: one immutable product per fused frame
-/// (raycast maps, SSAO, MVAO, raw depth, HUD numbers, the fused surface), filled by the pipeline.
+/// (raycast maps, SSAO, MVAO, fused colour, raw depth, HUD numbers, the fused surface), filled by
+/// the pipeline.
 #pragma once
 
 #include <cstddef>
@@ -22,15 +23,19 @@ namespace aoscan {
 
 /// The views the live window cycles through with `v` (in this order) and the snapshots write.
 enum class View {
-  kShaded,   ///< model raycast: grey = MVAO x diffuse shading from the normals
-  kSsao,     ///< the frame's SSAO as grey
-  kNormals,  ///< raycast normals as colours
-  kDepth,    ///< raw depth through a colour map
-  kOrbit,    ///< free orbit view of the fused surface (points shaded by their AO)
+  kShaded,      ///< model raycast: grey = MVAO x diffuse shading from the normals
+  kSsao,        ///< the frame's SSAO as grey
+  kMvao,        ///< the MVAO grid's AO of the surface seen at each pixel as grey
+  kColour,      ///< the fused colour of the surface seen at each pixel
+  kColourMvao,  ///< the fused colour x the MVAO
+  kNormals,     ///< raycast normals as colours
+  kDepth,       ///< raw depth through a colour map
+  kOrbit,       ///< free orbit view of the fused surface (points shaded by their AO)
 };
-inline constexpr int kViewCount = 5;
+inline constexpr int kViewCount = 8;
 
-/// Short lower-case name used in snapshot file names and the HUD ("shaded", "ssao", ...).
+/// Short lower-case name used in snapshot file names and the HUD ("shaded", "ssao", "mvao",
+/// "colour", "colour_mvao", ...).
 const char* view_name(View view);
 /// The view after `view` in the cycle (kOrbit wraps to kShaded).
 View next_view(View view);
@@ -47,8 +52,8 @@ struct HudStats {
 /// One fused frame as the renderer sees it. The images cover the frame of `intrinsics`, each at the
 /// frame's resolution or at an integer fraction of it (the model raycast and what is computed on
 /// it run at a pyramid level: a 320x240 raycast of a 640x480 frame); views enlarge them by pixel
-/// replication. depth_m, normals and mvao share one size. An image of another size, or empty,
-/// shows as no data. Camera frame: x right, y down, z forward (metres).
+/// replication. depth_m, normals, mvao and colour share one size. An image of another size, or
+/// empty, shows as no data. Camera frame: x right, y down, z forward (metres).
 /// The tracking state of a frame taken while tracking is lost: what the user should do.
 inline constexpr const char* kTrackingLostState = "lost - move back to a scanned area";
 
@@ -61,6 +66,11 @@ struct ViewFrame {
   Image<Eigen::Vector3f> normals;     ///< raycast unit normals, camera frame; zero = invalid
   Image<float> ssao;                  ///< this frame's SSAO in [0, 1], 1 = open
   Image<float> mvao;                  ///< AO from the MVAO grid in [0, 1]; NaN = unobserved
+  /// The fused colour (Reconstruction::colour_image()) of the surface at each raycast pixel; a
+  /// surface without a coloured voxel near it is mid grey (as in mesh.ply). Empty when the run
+  /// has no fused colour (a source without colour, fusion.colour=off, nothing coloured yet): the
+  /// colour views then show the shaded view.
+  Image<Rgb8> colour;
   Image<float> raw_depth_m;           ///< filtered input depth (m), 0 = invalid
   std::string tracking_state = "ok";  ///< e.g. "good", kTrackingLostState, "paused"
   HudStats hud;

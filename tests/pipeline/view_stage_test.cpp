@@ -6,8 +6,11 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -178,15 +181,16 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   const SessionResult r = run_session(*source, options, stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_EQ(r.pipeline.counters.frames_processed, 8u);
-  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 5 views.
+  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 8 views.
   std::set<std::string> names;
   for (const auto& e : fs::directory_iterator(snaps)) names.insert(e.path().filename().string());
   std::set<std::string> expected;
-  for (const char* view : {"shaded", "ssao", "normals", "depth", "orbit"})
+  for (const char* view : {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth",
+                           "orbit"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);
-  EXPECT_EQ(r.session.snapshot_files, 15u);
+  EXPECT_EQ(r.session.snapshot_files, 24u);
   for (const std::string& name : expected) {
     const auto [w, h] = png_size(snaps / name);
     EXPECT_EQ(w, 160) << name;
@@ -215,6 +219,166 @@ TEST(ViewStage, FullResolutionSnapshotsShowTheHalfResolutionModel) {
     const fs::path png = snaps / (std::string(view) + "_000001.png");
     ASSERT_EQ(png_size(png), std::make_pair(640, 480)) << png;
     EXPECT_GT(fraction_unlike_corner(png), 0.5) << png;
+  }
+}
+
+/// The RGB pixels of a PNG (empty when unreadable).
+Image<Rgb8> read_png(const fs::path& path) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) return {};
+  image.format = PNG_FORMAT_RGB;
+  Image<Rgb8> out(static_cast<int>(image.width), static_cast<int>(image.height));
+  if (!png_image_finish_read(&image, nullptr, out.data(), 0, nullptr)) return {};
+  return out;
+}
+
+/// Runs the processing stages over the frames of `spec` one frame at a time on this thread;
+/// `check` sees each frame after the last stage.
+void run_stages(Processing& processing, const std::string& spec,
+                const std::function<void(const FrameWork&)>& check) {
+  std::unique_ptr<Source> source = open_source(spec);
+  const std::vector<StageDef> stages = processing.stages();
+  FrameWork work;
+  for (;;) {
+    const Status read = source->read(work.raw);
+    if (read.code() == Status::Code::kEndOfStream) break;
+    ASSERT_TRUE(read.is_ok()) << read.message();
+    for (const StageDef& stage : stages) ASSERT_TRUE(stage.process(work).is_ok()) << stage.name;
+    check(work);
+  }
+}
+
+constexpr const char* kColourCorner =
+    "synth:corner?frames=6&width=160&height=120&noise=none&colour=on";
+
+TEST(ModelColour, ComputedOnlyForAViewConsumerAndOnlyWithColour) {
+  // Headless without snapshots (the default): no frame gets a colour image, nor view products.
+  {
+    Processing processing{Config{}};
+    int frames = 0;
+    run_stages(processing, kColourCorner, [&](const FrameWork& f) {
+      ++frames;
+      EXPECT_FALSE(f.view_candidate);
+      EXPECT_FALSE(f.view_products);
+      EXPECT_TRUE(f.model_colour.empty());
+    });
+    EXPECT_EQ(frames, 6);
+  }
+  // With a consumer: every tracked frame has one at the raycast's size.
+  {
+    Processing processing{Config{}};
+    processing.set_view_products(true);
+    int coloured = 0;
+    run_stages(processing, kColourCorner, [&](const FrameWork& f) {
+      EXPECT_TRUE(f.view_candidate);
+      EXPECT_TRUE(f.view_products);
+      ASSERT_TRUE(f.raycast);
+      EXPECT_EQ(f.model_colour.width(), f.raycast->depth_m.width());
+      EXPECT_EQ(f.model_colour.height(), f.raycast->depth_m.height());
+      coloured += !f.model_colour.empty();
+    });
+    EXPECT_EQ(coloured, 6);
+  }
+  // With a consumer but no colour fused (fusion.colour=off, or a source without colour): none.
+  for (const bool source_colour : {true, false}) {
+    Config config;
+    if (source_colour) config.fusion.colour = ColourFusion::kOff;
+    Processing processing{config};
+    processing.set_view_products(true);
+    const std::string spec = source_colour ? kColourCorner
+                                           : "synth:corner?frames=3&width=160&height=120";
+    run_stages(processing, spec, [&](const FrameWork& f) {
+      EXPECT_TRUE(f.view_products);
+      EXPECT_TRUE(f.model_colour.empty());
+    });
+  }
+}
+
+TEST(ModelColour, ShowsEachPrimitivesTrueColourInsideIt) {
+  // Each primitive of the synthetic scene is one flat colour, and the synthetic colour camera is
+  // registered and exact: the fused colour at a raycast pixel well inside a primitive (its 7 x 7
+  // neighbourhood one colour in the frame's true colour image) is that colour. Tolerance: 4
+  // levels per channel (voxel colours are 8-bit running means, blended trilinearly), at 99.5 % of
+  // those pixels (room for a voxel that a grazing view coloured across an edge; all of them
+  // are within it on this path).
+  Processing processing{Config{}};
+  processing.set_view_products(true);
+  constexpr int kHalf = 3;
+  std::size_t inside = 0, close = 0;
+  std::set<std::uint32_t> colours_seen;
+  run_stages(processing, "synth:corner?frames=10&width=160&height=120&noise=none&colour=on",
+             [&](const FrameWork& f) {
+               const Image<Rgb8>& truth = f.raw.colour;
+               ASSERT_EQ(f.model_colour.width(), truth.width());  // raycast at the frame's size
+               for (int y = kHalf; y < truth.height() - kHalf; ++y)
+                 for (int x = kHalf; x < truth.width() - kHalf; ++x) {
+                   bool uniform = f.raycast->depth_m(x, y) > 0.0f;
+                   for (int dy = -kHalf; dy <= kHalf && uniform; ++dy)
+                     for (int dx = -kHalf; dx <= kHalf && uniform; ++dx)
+                       uniform = truth(x + dx, y + dy) == truth(x, y);
+                   if (!uniform) continue;
+                   const Rgb8 a = f.model_colour(x, y), b = truth(x, y);
+                   ++inside;
+                   close += std::abs(a.r - b.r) <= 4 && std::abs(a.g - b.g) <= 4 &&
+                            std::abs(a.b - b.b) <= 4;
+                   colours_seen.insert(b.r << 16 | b.g << 8 | b.b);
+                 }
+             });
+  std::printf("[ info ] fused colour within 4 levels of the truth at %zu of %zu pixels, %zu "
+              "primitive colours\n", close, inside, colours_seen.size());
+  ASSERT_GT(inside, 10u * 160 * 120 / 2);  // most of every frame
+  EXPECT_GE(colours_seen.size(), 3u);      // several primitives, not one wall
+  EXPECT_GE(static_cast<double>(close) / static_cast<double>(inside), 0.995)
+      << close << " of " << inside;
+}
+
+TEST(ViewStage, ColourSnapshotsShowTheFusedColourOrTheShadedView) {
+  // The colour views of snapshots: a coloured corner differs from the shaded grey; without
+  // colour (fusion.colour=off) they are the shaded view, pixel for pixel; colour_mvao is never
+  // brighter than colour.
+  aoscan::testing::ScratchDir scratch;
+  for (const bool colour : {true, false}) {
+    const fs::path snaps = scratch.path(colour ? "colour_png" : "no_colour_png");
+    std::unique_ptr<Source> source = open_source(kColourCorner);
+    RunOptions options;
+    options.out_dir = scratch.path(colour ? "colour_out" : "no_colour_out").string();
+    options.threads = 2;
+    options.snapshot_dir = snaps.string();
+    options.snapshot_every = 100;
+    if (!colour) options.config.fusion.colour = ColourFusion::kOff;
+    std::atomic<bool> stop{false};
+    const SessionResult r = run_session(*source, options, stop);
+    ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
+    const Image<Rgb8> shaded = read_png(snaps / "shaded_000005.png");
+    const Image<Rgb8> plain = read_png(snaps / "colour_000005.png");
+    const Image<Rgb8> with_ao = read_png(snaps / "colour_mvao_000005.png");
+    const Image<Rgb8> mvao = read_png(snaps / "mvao_000005.png");
+    ASSERT_EQ(shaded.width(), 160);
+    ASSERT_EQ(plain.width(), 160);
+    ASSERT_EQ(with_ao.width(), 160);
+    ASSERT_EQ(mvao.width(), 160);
+    if (!colour) {
+      EXPECT_EQ(plain, shaded);
+      EXPECT_EQ(with_ao, shaded);
+      continue;
+    }
+    std::size_t coloured = 0, darker_or_equal = 0, surface = 0;
+    for (int y = 0; y < 120; ++y)
+      for (int x = 0; x < 160; ++x) {
+        const Rgb8 p = plain(x, y), q = with_ao(x, y), m = mvao(x, y);
+        const Rgb8 background = ViewStyle{}.background;
+        if (m != background) {
+          EXPECT_TRUE(m.r == m.g && m.g == m.b) << "mvao is grey at " << x << "," << y;
+        }
+        if (p == background) continue;
+        ++surface;
+        coloured += p.r != p.g || p.g != p.b;
+        darker_or_equal += q.r <= p.r && q.g <= p.g && q.b <= p.b;
+      }
+    EXPECT_GT(surface, 160u * 120 / 2);
+    EXPECT_GT(coloured, surface / 2);
+    EXPECT_EQ(darker_or_equal, surface);
   }
 }
 

@@ -82,6 +82,102 @@ TEST(Composite, SsaoIsGrey) {
   EXPECT_EQ(shade_ssao(2.0f, style), (Rgb8{255, 255, 255}));
 }
 
+TEST(Composite, MvaoViewIsTheGridsAoAsGreyWithoutDiffuse) {
+  ViewStyle style;  // the default light: a diffuse term would darken these pixels
+  const ViewFrame f = testing::sphere_wall_frame(160, 120);
+  Image<Rgb8> out;
+  composite_view(f, View::kMvao, out, style);
+  ASSERT_EQ(out.width(), 160);
+  int grey_pixels = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) {
+      const float ao = f.mvao(x, y);
+      if (std::isnan(ao) || !(f.depth_m(x, y) > 0.0f)) {
+        EXPECT_EQ(out(x, y), style.background) << x << "," << y;  // unobserved, no surface
+        continue;
+      }
+      // round(AO x 255): within half a level (either side of an exact tie), and grey.
+      const Rgb8 p = out(x, y);
+      ASSERT_TRUE(p.r == p.g && p.g == p.b) << x << "," << y;
+      ASSERT_LE(std::abs(p.r - ao * 255.0), 0.5 + 1e-4) << x << "," << y << " ao " << ao;
+      ++grey_pixels;
+    }
+  EXPECT_GE(grey_pixels, 150 * 120 - 100);  // all but the no-surface band and the NaN patch
+  // Given values: AO x 255 rounded, clamped; NaN and negative are no data, as is no surface.
+  const Eigen::Vector3f n(0.6f, 0.0f, -0.8f);
+  EXPECT_EQ(shade_mvao_grey(1.0f, n, 0.25f, style), (Rgb8{64, 64, 64}));
+  EXPECT_EQ(shade_mvao_grey(1.0f, n, 0.6f, style), (Rgb8{153, 153, 153}));
+  EXPECT_EQ(shade_mvao_grey(1.0f, n, 1.0f, style), (Rgb8{255, 255, 255}));
+  EXPECT_EQ(shade_mvao_grey(1.0f, n, 1.2f, style), (Rgb8{255, 255, 255}));
+  EXPECT_EQ(shade_mvao_grey(1.0f, n, kNaN, style), style.background);
+  EXPECT_EQ(shade_mvao_grey(1.0f, n, -1.0f, style), style.background);
+  EXPECT_EQ(shade_mvao_grey(0.0f, n, 0.5f, style), style.background);
+  EXPECT_EQ(shade_mvao_grey(1.0f, {0, 0, 0}, 0.5f, style), style.background);
+  // A frame whose MVAO image was not built shows no data everywhere.
+  ViewFrame no_mvao = f;
+  no_mvao.mvao = Image<float>();
+  composite_view(no_mvao, View::kMvao, out, style);
+  EXPECT_EQ(out(80, 60), style.background);
+}
+
+TEST(Composite, ColourViewIsTheFusedColour) {
+  const ViewStyle style;
+  ViewFrame f = testing::sphere_wall_frame(160, 120);
+  Image<Rgb8> out;
+  composite_view(f, View::kColour, out, style);
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) {
+      const bool surface = f.depth_m(x, y) > 0.0f;
+      ASSERT_EQ(out(x, y), surface ? f.colour(x, y) : style.background) << x << "," << y;
+    }
+  EXPECT_EQ(shade_colour(1.0f, {0, 0, -1}, Rgb8{200, 100, 40}, style), (Rgb8{200, 100, 40}));
+  EXPECT_EQ(shade_colour(0.0f, {0, 0, -1}, Rgb8{200, 100, 40}, style), style.background);
+  EXPECT_EQ(shade_colour(1.0f, {0, 0, 0}, Rgb8{200, 100, 40}, style), style.background);
+}
+
+TEST(Composite, ColourMvaoIsColourTimesAoPerChannel) {
+  ViewStyle style;  // the default light: no diffuse term may show
+  ViewFrame f = testing::sphere_wall_frame(160, 120);
+  Image<Rgb8> out;
+  composite_view(f, View::kColourMvao, out, style);
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) {
+      if (!(f.depth_m(x, y) > 0.0f)) {
+        ASSERT_EQ(out(x, y), style.background);
+        continue;
+      }
+      const Rgb8 c = f.colour(x, y);
+      const float ao = std::isnan(f.mvao(x, y)) ? 1.0f : f.mvao(x, y);  // unobserved: open
+      const Rgb8 expected{to_u8(c.r / 255.0f * ao), to_u8(c.g / 255.0f * ao),
+                          to_u8(c.b / 255.0f * ao)};
+      ASSERT_EQ(out(x, y), expected) << x << "," << y;
+    }
+  // Given values.
+  const Rgb8 c{200, 100, 40};
+  EXPECT_EQ(shade_colour_mvao(1.0f, {0, 0, -1}, c, 0.5f, style), (Rgb8{100, 50, 20}));
+  EXPECT_EQ(shade_colour_mvao(1.0f, {0, 0, -1}, c, 0.25f, style), (Rgb8{50, 25, 10}));
+  EXPECT_EQ(shade_colour_mvao(1.0f, {1, 0, 0}, c, 0.25f, style), (Rgb8{50, 25, 10}));  // no diffuse
+  EXPECT_EQ(shade_colour_mvao(1.0f, {0, 0, -1}, c, kNaN, style), c);   // unobserved: open
+  EXPECT_EQ(shade_colour_mvao(1.0f, {0, 0, -1}, c, 1.5f, style), c);   // clamped
+  EXPECT_EQ(shade_colour_mvao(0.0f, {0, 0, -1}, c, 0.5f, style), style.background);
+}
+
+TEST(Composite, ColourViewsWithoutColourShowTheShadedView) {
+  const ViewStyle style;
+  ViewFrame f = testing::sphere_wall_frame(160, 120);
+  Image<Rgb8> shaded;
+  composite_view(f, View::kShaded, shaded, style);
+  ViewFrame wrong_size = f;
+  wrong_size.colour.resize(80, 40);
+  f.colour = Image<Rgb8>();  // a run without colour
+  for (const ViewFrame* frame : {&f, &wrong_size})
+    for (View v : {View::kColour, View::kColourMvao}) {
+      Image<Rgb8> out;
+      composite_view(*frame, v, out, style);
+      EXPECT_EQ(out, shaded) << view_name(v);
+    }
+}
+
 TEST(Composite, NormalColours) {
   const ViewStyle style;
   EXPECT_EQ(shade_normal(1.0f, {0, 0, -1}, style), (Rgb8{128, 128, 255}));  // facing the camera
@@ -129,7 +225,8 @@ TEST(Composite, MissingOrMismatchedImagesAreNoData) {
   f.depth_m.resize(2, 2, 1.0f);  // wrong size
   const ViewStyle style;
   Image<Rgb8> out;
-  for (View v : {View::kShaded, View::kSsao, View::kNormals, View::kDepth, View::kOrbit}) {
+  for (int i = 0; i < kViewCount; ++i) {
+    const View v = static_cast<View>(i);
     composite_view(f, v, out, style);
     ASSERT_EQ(out.width(), 3) << view_name(v);
     for (int y = 0; y < 3; ++y)
@@ -143,7 +240,8 @@ TEST(Composite, FractionalResolutionImagesAreEnlargedByReplication) {
     const ViewFrame small = testing::model_at_fraction(testing::sphere_wall_frame(160, 120), scale);
     const ViewFrame full = testing::model_replicated(small);
     ASSERT_EQ(full.depth_m.width(), 160);
-    for (View v : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+    for (View v : {View::kShaded, View::kSsao, View::kMvao, View::kColour, View::kColourMvao,
+                   View::kNormals, View::kDepth}) {
       Image<Rgb8> a, b;
       composite_view(small, v, a, style);
       composite_view(full, v, b, style);
@@ -179,7 +277,8 @@ TEST(Composite, ImageScale) {
 
 TEST(Composite, ViewCycle) {
   View v = View::kShaded;
-  const char* expected[] = {"ssao", "normals", "depth", "orbit", "shaded"};
+  const char* expected[] = {"ssao",    "mvao",  "colour", "colour_mvao",
+                            "normals", "depth", "orbit",  "shaded"};
   for (const char* name : expected) {
     v = next_view(v);
     EXPECT_STREQ(view_name(v), name);

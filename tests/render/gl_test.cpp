@@ -34,6 +34,10 @@ namespace {
 constexpr int kMaxChannelDiff = 2;
 constexpr double kMinMatchingShare = 0.999;
 
+/// Every view drawn from the frame's images (all but the orbit view).
+constexpr View kImageViews[] = {View::kShaded,     View::kSsao,    View::kMvao, View::kColour,
+                                View::kColourMvao, View::kNormals, View::kDepth};
+
 struct Comparison {
   double matching_share = 0.0;
   int max_diff = 0;
@@ -152,38 +156,49 @@ TEST_F(GlTest, EveryShaderCompilesAndLinks) {
 }
 
 TEST_F(GlTest, ImageViewsMatchTheCpuComposite) {
-  ViewFrame frame = testing::sphere_wall_frame(160, 120);
+  ViewFrame with_colour = testing::sphere_wall_frame(160, 120);
+  ViewFrame without_colour = with_colour;
+  without_colour.colour = Image<Rgb8>();  // the colour views show the shaded view
   ViewStyle style;  // the default light: non-trivial diffuse everywhere
-  for (const bool view_only : {false, true}) {
-    for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
-      Image<Rgb8> cpu;
-      composite_view(frame, view, cpu, style);
-      const Image<Rgb8> gpu = render_gl(frame, view, style, {}, view_only);
-      const Comparison c = compare(cpu, gpu);
-      std::printf("[ info ] %-8s%s matching %.5f, max diff %d\n", view_name(view),
-                  view_only ? " (its data only)" : "", c.matching_share, c.max_diff);
-      EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
-      EXPECT_LE(c.max_diff, 8) << view_name(view);  // near-misses only, never a wrong colour
+  for (const ViewFrame* frame : {&with_colour, &without_colour}) {
+    for (const bool view_only : {false, true}) {
+      for (View view : kImageViews) {
+        Image<Rgb8> cpu;
+        composite_view(*frame, view, cpu, style);
+        const Image<Rgb8> gpu = render_gl(*frame, view, style, {}, view_only);
+        const Comparison c = compare(cpu, gpu);
+        std::printf("[ info ] %-11s%s%s matching %.5f, max diff %d\n", view_name(view),
+                    frame == &without_colour ? " (no colour)" : "",
+                    view_only ? " (its data only)" : "", c.matching_share, c.max_diff);
+        EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
+        EXPECT_LE(c.max_diff, 8) << view_name(view);  // near-misses only, never a wrong colour
+      }
     }
   }
   // The NaN patches and the no-surface band really show the background in GL too.
-  const Image<Rgb8> ssao = render_gl(frame, View::kSsao, style);
+  const Image<Rgb8> ssao = render_gl(with_colour, View::kSsao, style);
   EXPECT_EQ(ssao(15, 15), style.background);
-  const Image<Rgb8> shaded = render_gl(frame, View::kShaded, style);
+  const Image<Rgb8> mvao = render_gl(with_colour, View::kMvao, style);
+  EXPECT_EQ(mvao(35, 15), style.background);  // unobserved: no data in the mvao view
+  EXPECT_EQ(mvao(155, 5), style.background);
+  const Image<Rgb8> shaded = render_gl(with_colour, View::kShaded, style);
   EXPECT_EQ(shaded(155, 5), style.background);
   EXPECT_NE(shaded(35, 15), style.background);  // unobserved MVAO shades as open
+  const Image<Rgb8> colour = render_gl(with_colour, View::kColour, style);
+  EXPECT_EQ(colour(155, 5), style.background);
+  EXPECT_EQ(colour(35, 15), with_colour.colour(35, 15));
 }
 
 TEST_F(GlTest, HalfResolutionModelImagesMatchTheCpuComposite) {
   // The pipeline publishes the model raycast (and its SSAO and MVAO) at half the frame's size.
   const ViewFrame frame = testing::model_at_fraction(testing::sphere_wall_frame(160, 120), 2);
   ViewStyle style;
-  for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+  for (View view : kImageViews) {
     Image<Rgb8> cpu;
     composite_view(frame, view, cpu, style);
     const Image<Rgb8> gpu = render_gl(frame, view, style);
     const Comparison c = compare(cpu, gpu);
-    std::printf("[ info ] %-8s (half) matching %.5f, max diff %d\n", view_name(view),
+    std::printf("[ info ] %-11s (half) matching %.5f, max diff %d\n", view_name(view),
                 c.matching_share, c.max_diff);
     EXPECT_GE(c.matching_share, kMinMatchingShare) << view_name(view);
     EXPECT_LE(c.max_diff, 8) << view_name(view);
@@ -205,6 +220,15 @@ TEST_F(GlTest, ExactGreyAndNormalColours) {
   EXPECT_NEAR(normals(0, 0).r, 128, 1);
   EXPECT_NEAR(normals(0, 0).g, 128, 1);
   EXPECT_EQ(normals(0, 0).b, 255);
+  // The mvao view: AO x 255 with no diffuse term, also under a slanted light.
+  frame.mvao.fill(0.6f);
+  ViewStyle slanted;
+  const Image<Rgb8> mvao = render_gl(frame, View::kMvao, slanted);
+  EXPECT_EQ(mvao(3, 2), (Rgb8{153, 153, 153}));
+  // The colour views: the colour, and the colour x AO (0.6) per channel.
+  frame.colour.resize(8, 4, Rgb8{200, 100, 40});
+  EXPECT_EQ(render_gl(frame, View::kColour, slanted)(5, 1), (Rgb8{200, 100, 40}));
+  EXPECT_EQ(render_gl(frame, View::kColourMvao, slanted)(5, 1), (Rgb8{120, 60, 24}));
 }
 
 TEST_F(GlTest, ReuploadsOfSameAndOtherSizesShowTheNewFrame) {
@@ -243,10 +267,11 @@ TEST_F(GlTest, ViewOnlyUploadsShowTheNewFrameInThatView) {
   first.ssao.fill(0.2f);
   first.mvao.fill(0.2f);
   renderer.upload(first);
-  for (View view : {View::kShaded, View::kSsao, View::kNormals, View::kDepth}) {
+  for (View view : kImageViews) {
     ViewFrame second = testing::sphere_wall_frame(40, 30);
     second.ssao.fill(0.9f);
     second.mvao.fill(0.9f);
+    second.colour.fill(Rgb8{10, 200, 90});
     for (int y = 0; y < 30; ++y)
       for (int x = 0; x < 20; ++x) second.raw_depth_m(x, y) = 0.0f;  // left half: no depth
     second.normals.fill(Eigen::Vector3f(0.6f, 0.0f, -0.8f));

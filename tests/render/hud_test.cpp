@@ -24,13 +24,29 @@ TEST(Hud, LinesShowTheNumbers) {
   EXPECT_EQ(hud_lines(nullptr, View::kShaded, 0.0).size(), 2u);
 }
 
+TEST(Hud, ColourViewsOfAFrameWithoutColourSaySo) {
+  ViewFrame f = testing::sphere_wall_frame(16, 12);
+  for (View v : {View::kColour, View::kColourMvao, View::kShaded}) {
+    EXPECT_EQ(hud_lines(&f, v, 30.0)[0].find("no colour"), std::string::npos) << view_name(v);
+  }
+  f.colour = Image<Rgb8>();
+  EXPECT_NE(hud_lines(&f, View::kColour, 30.0)[0].find("view colour (no colour: shaded)"),
+            std::string::npos);
+  EXPECT_NE(hud_lines(&f, View::kColourMvao, 30.0)[0].find("(no colour: shaded)"),
+            std::string::npos);
+  EXPECT_EQ(hud_lines(&f, View::kMvao, 30.0)[0].find("no colour"), std::string::npos);
+}
+
 TEST(Hud, FontCoversEverythingTheHudWrites) {
   ViewFrame f = testing::sphere_wall_frame(16, 12);
   f.tracking_state = kTrackingLostState;
   f.hud.integration_paused = true;
-  for (int v = 0; v < kViewCount; ++v)
-    for (const std::string& line : hud_lines(&f, static_cast<View>(v), 12.0))
-      for (char c : line) EXPECT_NE(font_glyph(c), nullptr) << "'" << c << "' in " << line;
+  for (const bool colour : {true, false}) {
+    if (!colour) f.colour = Image<Rgb8>();
+    for (int v = 0; v < kViewCount; ++v)
+      for (const std::string& line : hud_lines(&f, static_cast<View>(v), 12.0))
+        for (char c : line) EXPECT_NE(font_glyph(c), nullptr) << "'" << c << "' in " << line;
+  }
   for (char c = 'a'; c <= 'z'; ++c) EXPECT_EQ(font_glyph(c), font_glyph(static_cast<char>(c - 32)));
   for (char c = '0'; c <= '9'; ++c) EXPECT_NE(font_glyph(c), nullptr);
   EXPECT_EQ(font_glyph('\t'), nullptr);

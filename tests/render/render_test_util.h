@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 
@@ -17,8 +18,8 @@ namespace aoscan::testing {
 
 /// A `width` x `height` frame: a sphere (centre (0.1, -0.05, 1.5) m, radius 0.5 m) in front of a
 /// wall at z = 2.5 m that covers the image except a 10 px band on the right (no surface there).
-/// SSAO and MVAO vary smoothly in [0, 1] with a NaN patch each; the raw depth is the depth with a
-/// 5 px invalid border.
+/// SSAO and MVAO vary smoothly in [0, 1] with a NaN patch each; the fused colour is a pattern of
+/// x and y; the raw depth is the depth with a 5 px invalid border.
 inline ViewFrame sphere_wall_frame(int width = 160, int height = 120) {
   ViewFrame f;
   f.sequence = 7;
@@ -31,6 +32,7 @@ inline ViewFrame sphere_wall_frame(int width = 160, int height = 120) {
   f.normals.resize(width, height, Eigen::Vector3f::Zero());
   f.ssao.resize(width, height);
   f.mvao.resize(width, height);
+  f.colour.resize(width, height);
   f.raw_depth_m.resize(width, height);
   const Eigen::Vector3f centre(0.1f, -0.05f, 1.5f);
   const float radius = 0.5f;
@@ -57,6 +59,9 @@ inline ViewFrame sphere_wall_frame(int width = 160, int height = 120) {
       f.normals(x, y) = normal;
       f.ssao(x, y) = 0.5f + 0.5f * std::sin(0.11f * x) * std::cos(0.07f * y);
       f.mvao(x, y) = 0.6f + 0.4f * std::cos(0.05f * x + 0.09f * y);
+      f.colour(x, y) = {static_cast<std::uint8_t>(40 + (7 * x) % 200),
+                        static_cast<std::uint8_t>(30 + (5 * y) % 220),
+                        static_cast<std::uint8_t>((3 * x + 11 * y) % 256)};
       const bool border = x < 5 || y < 5 || x >= width - 5 || y >= height - 5;
       f.raw_depth_m(x, y) = border ? 0.0f : (depth > 0.0f ? depth + 0.001f * (x % 3) : 0.0f);
     }
@@ -73,7 +78,8 @@ inline ViewFrame sphere_wall_frame(int width = 160, int height = 120) {
   return f;
 }
 
-/// `f` with its model images (depth, normals, SSAO, MVAO) at 1/`scale` of the frame's resolution,
+/// `f` with its model images (depth, normals, SSAO, MVAO, colour) at 1/`scale` of the frame's
+/// resolution,
 /// as the pipeline publishes a pyramid-level raycast: every `scale`-th pixel of each row and
 /// column. The raw depth stays at full resolution.
 inline ViewFrame model_at_fraction(const ViewFrame& f, int scale) {
@@ -87,6 +93,7 @@ inline ViewFrame model_at_fraction(const ViewFrame& f, int scale) {
   shrink(f.normals, out.normals);
   shrink(f.ssao, out.ssao);
   shrink(f.mvao, out.mvao);
+  if (!f.colour.empty()) shrink(f.colour, out.colour);
   return out;
 }
 
@@ -104,6 +111,7 @@ inline ViewFrame model_replicated(const ViewFrame& small) {
   grow(small.normals, out.normals);
   grow(small.ssao, out.ssao);
   grow(small.mvao, out.mvao);
+  if (!small.colour.empty()) grow(small.colour, out.colour);
   return out;
 }
 
