@@ -173,6 +173,9 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
   cmd.add_flag("--bake-ao", args.run.bake_ao,
                "multiply the colour of mesh.ply and mesh.glb by the AO (for viewers that ignore "
                "the AO attribute)");
+  cmd.add_flag("--points", args.run.points,
+               "also write OUT/points.ply: the fused surface as points with normals, AO "
+               "(quality) and colour, mesh.ply's layout without faces");
   cmd.add_flag("--save-session", args.run.save_session,
                "also write what is needed to continue this session later into OUT/session/ "
                "(TSDF, MVAO grid, keyframes, trajectory, configuration)");

@@ -190,7 +190,10 @@ std::uint64_t min_instance_size(const Element& e, bool ascii) {
 
 }  // namespace
 
-std::string ply_header(std::size_t vertex_count, std::size_t face_count) {
+std::string ply_header(std::size_t vertex_count, std::size_t face_count, bool face_element) {
+  const std::string faces = face_element ? "element face " + std::to_string(face_count) +
+                                               "\nproperty list uchar int vertex_indices\n"
+                                         : std::string();
   return "ply\n"
          "format binary_little_endian 1.0\n"
          "element vertex " +
@@ -205,20 +208,19 @@ std::string ply_header(std::size_t vertex_count, std::size_t face_count) {
          "property float quality\n"
          "property uchar red\n"
          "property uchar green\n"
-         "property uchar blue\n"
-         "element face " +
-         std::to_string(face_count) +
-         "\n"
-         "property list uchar int vertex_indices\n"
-         "end_header\n";
+         "property uchar blue\n" +
+         faces + "end_header\n";
 }
 
-PlyWriter::PlyWriter(const std::string& path, std::size_t vertex_count, std::size_t face_count)
-    : path_(path), vertices_left_(vertex_count), faces_left_(face_count) {
+PlyWriter::PlyWriter(const std::string& path, std::size_t vertex_count, std::size_t face_count,
+                     bool face_element)
+    : path_(path), vertices_left_(vertex_count), faces_left_(face_element ? face_count : 0) {
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) throw_write_failed(path);
   buffer_.reserve(kChunk + 64);
-  const std::string header = ply_header(vertex_count, face_count);
+  if (!face_element && face_count != 0)
+    throw usage_error(path + ": a point cloud has no faces");
+  const std::string header = ply_header(vertex_count, face_count, face_element);
   buffer_.insert(buffer_.end(), header.begin(), header.end());
 }
 
@@ -267,19 +269,35 @@ void PlyWriter::finish() {
   if (!closed || !ok_) throw_write_failed(path_);
 }
 
-void write_ply(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options) {
+namespace {
+
+/// write_ply(), or with `points` write_points_ply().
+void write_ply_file(const std::string& path, const TriangleMesh& mesh,
+                    const MeshWriteOptions& options, bool points) {
   check_mesh_for_writing(path, mesh);
   const std::size_t n = mesh.vertices.size();
-  write_atomically(path, [&mesh, &options, n](const std::string& partial) {
-    PlyWriter writer(partial, n, mesh.faces.size());
+  write_atomically(path, [&mesh, &options, n, points](const std::string& partial) {
+    PlyWriter writer(partial, n, points ? 0 : mesh.faces.size(), !points);
     for (std::size_t i = 0; i < n; ++i)
       writer.vertex(mesh.vertices[i],
                     mesh.normals.empty() ? Eigen::Vector3f::Zero() : mesh.normals[i],
                     mesh.quality.empty() ? 1.0f : mesh.quality[i],
                     written_colour(mesh, i, options));
-    for (const Eigen::Vector3i& face : mesh.faces) writer.face(face);
+    if (!points)
+      for (const Eigen::Vector3i& face : mesh.faces) writer.face(face);
     writer.finish();
   });
+}
+
+}  // namespace
+
+void write_ply(const std::string& path, const TriangleMesh& mesh, const MeshWriteOptions& options) {
+  write_ply_file(path, mesh, options, false);
+}
+
+void write_points_ply(const std::string& path, const TriangleMesh& mesh,
+                      const MeshWriteOptions& options) {
+  write_ply_file(path, mesh, options, true);
 }
 
 namespace {

@@ -21,7 +21,8 @@ namespace aoscan {
 ///   ply / format binary_little_endian 1.0 / element vertex N / property float x, y, z,
 ///   nx, ny, nz, quality / property uchar red, green, blue / element face M /
 ///   property list uchar int vertex_indices / end_header
-std::string ply_header(std::size_t vertex_count, std::size_t face_count);
+/// With `face_element` false the `element face` lines are left out (a point cloud).
+std::string ply_header(std::size_t vertex_count, std::size_t face_count, bool face_element = true);
 
 /// Bytes of one vertex after that header: seven floats and three uchars.
 constexpr std::size_t kPlyVertexBytes = 7 * 4 + 3;
@@ -37,13 +38,20 @@ constexpr std::size_t kPlyVertexBytes = 7 * 4 + 3;
 void write_ply(const std::string& path, const TriangleMesh& mesh,
                const MeshWriteOptions& options = {});
 
+/// The vertices of `mesh` as a point cloud (points.ply): write_ply()'s vertex layout and values,
+/// and a header without the face element.
+void write_points_ply(const std::string& path, const TriangleMesh& mesh,
+                      const MeshWriteOptions& options = {});
+
 /// Writes a PLY of write_ply()'s layout one vertex (then one face) at a time, for outputs too
 /// large to hold as one TriangleMesh: the counts are fixed up front and finish() checks that
 /// exactly that many were given. Writes `path` itself (wrap it in write_atomically()). Throws
 /// Error (exit code 1) naming the file when it cannot be written, usage_error on a wrong count.
 class PlyWriter {
  public:
-  PlyWriter(const std::string& path, std::size_t vertex_count, std::size_t face_count);
+  /// `face_element` false: a point cloud, whose header has no face element (face_count 0).
+  PlyWriter(const std::string& path, std::size_t vertex_count, std::size_t face_count,
+            bool face_element = true);
   ~PlyWriter();
   PlyWriter(const PlyWriter&) = delete;
   PlyWriter& operator=(const PlyWriter&) = delete;

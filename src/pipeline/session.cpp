@@ -46,6 +46,7 @@ const std::vector<std::string> kRunOutputs = {"trajectory.txt", "mesh.ply",   "m
 /// The files this run writes, in the order it writes them (stats.json last).
 std::vector<std::string> outputs_of(const RunOptions& options) {
   std::vector<std::string> files = {"trajectory.txt", "mesh.ply", "mesh.glb"};
+  if (options.points) files.push_back("points.ply");
   if (options.save_volume) files.push_back("volume.vdb");
   if (options.save_session)
     for (const std::string& f : session_outputs()) files.push_back(f);
@@ -392,6 +393,10 @@ void export_outputs(const RunOptions& options, const Processing& processing, Vie
                 [&](const std::string& path) { write_ply(path, *exported.mesh, mesh_options); });
   outputs.write("mesh.glb",
                 [&](const std::string& path) { write_glb(path, *exported.mesh, mesh_options); });
+  if (options.points)
+    outputs.write("points.ply", [&](const std::string& path) {
+      write_points_ply(path, *exported.mesh, mesh_options);
+    });
   if (options.save_volume) {
     const auto volume_start = Clock::now();
     result.volume = VolumeStats{};

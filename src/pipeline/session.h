@@ -35,6 +35,9 @@ struct RunOptions {
   bool save_session = false;
   /// The colour of mesh.ply and mesh.glb multiplied by the AO (for viewers that ignore the AO).
   bool bake_ao = false;
+  /// Also write out_dir/points.ply: the fused surface as points (the mesh's vertices with their
+  /// normals, AO and colour, no faces) for point-cloud tools.
+  bool points = false;
   /// Non-empty: continue the session saved in resume_dir/session/ (read and checked before the
   /// output folder is touched: a session that cannot be continued is an error, exit 2 or 3).
   std::string resume_dir;

@@ -212,4 +212,37 @@ TEST(CliOutputs, EarlierRunsFilesAreMovedAsideAndSaid) {
   EXPECT_FALSE(stats["files"].contains("volume.vdb"));
 }
 
+// --points: points.ply beside mesh.ply, the same vertices (bytes) without faces, vouched for by
+// stats.json; without --points none is written.
+TEST(CliOutputs, PointsWritesTheSurfaceAsAPointCloud) {
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("points");
+  const fs::path out = dir / "out";
+  const CliRun r = run_aoscan("replay 'synth:corner?frames=10&width=160&height=120&colour=on' "
+                              "--headless --points --out " + quote(out.string()),
+                              dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string mesh = read_text(out / "mesh.ply");
+  const std::string points = read_text(out / "points.ply");
+  const std::size_t mesh_data = mesh.find("end_header\n") + 11;
+  const std::size_t points_data = points.find("end_header\n") + 11;
+  ASSERT_NE(points.find("end_header\n"), std::string::npos);
+  EXPECT_EQ(points.substr(0, points_data).find("element face"), std::string::npos);
+  const nlohmann::json stats = read_stats(out);
+  const std::size_t vertices = stats["mesh"]["vertices"].get<std::size_t>();
+  ASSERT_GT(vertices, 1000u);
+  ASSERT_EQ(points.size() - points_data, vertices * (7 * 4 + 3));
+  EXPECT_EQ(points.substr(points_data), mesh.substr(mesh_data, vertices * (7 * 4 + 3)));
+  EXPECT_TRUE(stats["files"].contains("points.ply"));
+  EXPECT_EQ(stats["mesh"]["coloured"], true);
+
+  const fs::path plain = dir / "plain";
+  ASSERT_EQ(run_aoscan("replay 'synth:corner?frames=4&width=160&height=120' --headless --out " +
+                           quote(plain.string()),
+                       dir)
+                .exit_code,
+            0);
+  EXPECT_FALSE(fs::exists(plain / "points.ply"));
+}
+
 }  // namespace

@@ -85,6 +85,30 @@ TEST(Ply, HeaderAndLayoutAsTheContractSays) {
             std::string("\x03\x00\x00\x00\x00\x02\x00\x00\x00\x03\x00\x00\x00", kFaceBytes));
 }
 
+// points.ply: the mesh's vertex bytes exactly, after a header that has no face element.
+TEST(Ply, PointsAreTheMeshVerticesWithoutAFaceElement) {
+  ScratchDir dir;
+  TriangleMesh m = square();
+  m.colours = {{10, 20, 30}, {40, 50, 60}, {70, 80, 90}, {200, 100, 50}};
+  write_ply(dir.file("mesh.ply"), m, MeshWriteOptions{true});
+  write_points_ply(dir.file("points.ply"), m, MeshWriteOptions{true});
+  const std::string mesh = read_bytes(dir.file("mesh.ply"));
+  const std::string points = read_bytes(dir.file("points.ply"));
+  const std::string header = ply_header(4, 0, false);
+  EXPECT_EQ(header.find("element face"), std::string::npos);
+  EXPECT_EQ(header, ply_header(4, 2).substr(0, ply_header(4, 2).find("element face")) + "end_header\n");
+  ASSERT_EQ(points.size(), header.size() + 4 * kVertexBytes);
+  EXPECT_EQ(points.substr(0, header.size()), header);
+  EXPECT_EQ(points.substr(header.size()), mesh.substr(ply_header(4, 2).size(), 4 * kVertexBytes));
+  const TriangleMesh back = read_ply(dir.file("points.ply"));
+  EXPECT_EQ(back.vertices, m.vertices);
+  EXPECT_EQ(back.normals, m.normals);
+  EXPECT_EQ(back.quality, m.quality);
+  EXPECT_TRUE(back.faces.empty());
+  // A point cloud with faces is a usage error of the writer.
+  EXPECT_THROW(PlyWriter(dir.file("bad.ply"), 4, 2, false), Error);
+}
+
 TEST(Ply, RoundTripIsExact) {
   ScratchDir dir;
   const TriangleMesh m = square();
