@@ -61,22 +61,31 @@ class Source {
   /// frame returns end of stream within kStopPollInterval of it instead of waiting out its
   /// timeout. Set by the reading loop before its first read; the flag must outlive the reads.
   void watch_stop(const std::atomic<bool>* stop) { stop_ = stop; }
-  /// With false, a source that has colour delivers none (nothing is decoded); set before the
-  /// first read.
-  void want_colour(bool wanted) { colour_wanted_ = wanted; }
+  /// With false, a source that has colour delivers none (nothing is decoded); with `every` > 1
+  /// (fusion.colour_every) a recording decodes only the colour of the frames colour_frame()
+  /// names; set before the first read.
+  void want_colour(bool wanted, int every = 1) {
+    colour_wanted_ = wanted;
+    colour_every_ = every;
+  }
 
  protected:
   bool stop_requested() const { return stop_ != nullptr && stop_->load(); }
   bool colour_wanted() const { return colour_wanted_; }
+  /// Colour wanted, and frame `sequence` is one whose colour is fused.
+  bool colour_wanted(std::uint64_t sequence) const {
+    return colour_wanted_ && colour_frame(sequence, colour_every_);
+  }
   /// For a source that wraps another: hands the stop flag and the colour choice on to `inner`.
   void forward_settings(Source& inner) const {
     inner.watch_stop(stop_);
-    inner.want_colour(colour_wanted_);
+    inner.want_colour(colour_wanted_, colour_every_);
   }
 
  private:
   const std::atomic<bool>* stop_ = nullptr;
   bool colour_wanted_ = true;
+  int colour_every_ = 1;
 };
 
 /// How often every wait of the program (replay pacing, a camera's frame wait) looks at the stop

@@ -26,7 +26,7 @@ class SynthSource final : public Source {
     if (next_ >= static_cast<std::uint64_t>(params_.frames)) return Status::end_of_stream();
     try {
       const std::uint64_t index = next_++;
-      params_.colour = colour_ && colour_wanted();
+      params_.colour = colour_ && colour_wanted(index);
       render_synth_frame(scene_, params_, index, frame);
       frame.origin = spec_ + " frame " + std::to_string(index);
       return Status::ok();

@@ -176,7 +176,7 @@ class TumSource final : public Source {
     frame.colour_camera = colour_camera_;
     frame.colour_error.clear();
     frame.colour_timestamp_s = 0.0;
-    if (!colour_camera_ || !colour_wanted()) {
+    if (!colour_camera_ || !colour_wanted(i)) {
       frame.colour.resize(0, 0);
       return;
     }

@@ -10,6 +10,13 @@
 
 namespace aoscan {
 
+/// Whether frame `sequence` of a source takes part in colour fusion when every `every`-th frame
+/// does (fusion.colour_every): the frames whose sequence is a multiple of it. The one rule the
+/// sources (which skip decoding the others' colour where they can) and fusion share.
+inline bool colour_frame(std::uint64_t sequence, int every) {
+  return every <= 1 || sequence % static_cast<std::uint64_t>(every) == 0;
+}
+
 /// One 8-bit sRGB colour.
 struct Rgb8 {
   std::uint8_t r = 0, g = 0, b = 0;

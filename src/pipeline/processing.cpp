@@ -133,7 +133,8 @@ Status Processing::track(FrameWork& frame) {
   }
   frame.integration_paused = paused_.load();
   std::shared_ptr<RaycastResult> raycast = raycasts_.acquire();
-  if (frame.raw.colour_camera && !frame.raw.colour.empty()) {
+  if (frame.raw.colour_camera && !frame.raw.colour.empty() &&
+      colour_frame(frame.raw.sequence, config_.fusion.colour_every)) {
     const ColourInput colour{frame.raw.colour, *frame.raw.colour_camera};
     frame.fusion = reconstruction_.process(frame.pre, frame.raw.intrinsics, raycast,
                                            !frame.integration_paused, &colour);

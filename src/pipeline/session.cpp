@@ -487,7 +487,8 @@ SessionResult run_session(Source& source, const RunOptions& options,
     spdlog::warn("{}", warning);
   SessionResult result;
   result.calibration = report_calibration(source);
-  source.want_colour(options.config.fusion.colour == ColourFusion::kOn);
+  source.want_colour(options.config.fusion.colour == ColourFusion::kOn,
+                     options.config.fusion.colour_every);
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   result.session.threads = options.threads > 0 ? std::min(options.threads, cores) : cores;
   if (options.threads > cores)
