@@ -82,17 +82,6 @@ ColourCamera registered_colour_camera(const Intrinsics& depth, int width, int he
   return c;
 }
 
-ColourCamera nominal_colour_camera(int width, int height, double depth_to_colour_x_m) {
-  ColourCamera c;
-  c.intrinsics.width = width;
-  c.intrinsics.height = height;
-  c.intrinsics.fx = c.intrinsics.fy = 525.0 * width / 640.0;
-  c.intrinsics.cx = (width - 1) * 0.5;
-  c.intrinsics.cy = (height - 1) * 0.5;
-  c.T_colour_depth = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(depth_to_colour_x_m, 0, 0));
-  return c;
-}
-
 ColourPairer::ColourPairer(std::size_t capacity, double max_dt_s)
     : slots_(std::max<std::size_t>(capacity, 1)), max_dt_s_(max_dt_s) {}
 

@@ -38,12 +38,6 @@ Status decode_colour_frame(ColourPixelFormat format, const std::uint8_t* data,
 /// pose, intrinsics scaled from the depth's).
 ColourCamera registered_colour_camera(const Intrinsics& depth, int width, int height);
 
-/// A colour camera with nominal intrinsics (fx = fy = 525 * width / 640, centred) at
-/// `depth_to_colour_x_m` along the depth camera's x axis (the translation of the depth-to-colour
-/// transform; no rotation): what a Kinect-class camera's colour camera is when nothing better is
-/// known.
-ColourCamera nominal_colour_camera(int width, int height, double depth_to_colour_x_m);
-
 /// A live camera's colour frames waiting to be paired with depth frames: the last few colour
 /// frames with their device timestamps (seconds, the depth frames' clock). Each depth frame takes
 /// the unused colour frame nearest to it in time within `max_dt_s` (the TUM reader's

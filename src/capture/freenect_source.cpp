@@ -122,7 +122,7 @@ class FreenectSource : public LiveMillimetreSource {
     if (has_video_)
       colour_camera_ = depth_ == FreenectDepth::kRegistered
                            ? ColourCamera::registered_to(intrinsics_)
-                           : nominal_colour_camera(kFakenectWidth, kFakenectHeight,
+                           : ColourCamera::nominal(kFakenectWidth, kFakenectHeight,
                                                    kKinectDepthToColourX);
     claim_ = DeviceClaim("freenect:" + std::to_string(parsed.index), uri);
     context_ = std::make_unique<FreenectContext>();
@@ -188,10 +188,7 @@ class FreenectSource : public LiveMillimetreSource {
     const std::uint64_t sequence = sequence_++;
     stamp(frame, timestamp_s, sequence);
     if (!video_started_) {
-      frame.colour.resize(0, 0);
-      frame.colour_camera.reset();
-      frame.colour_error.clear();
-      frame.colour_timestamp_s = 0.0;
+      frame.clear_colour();
       return Status::ok();
     }
     // Its colour: when the RGB stream is behind, wait briefly for a nearer frame, but never past

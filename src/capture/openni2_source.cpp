@@ -240,7 +240,7 @@ class OpenNI2Source : public Source {
   /// registers depth to colour, else nominal beside the depth camera.
   ColourCamera colour_camera_for(int width, int height, double hfov, double vfov) const {
     if (registered_) return registered_colour_camera(intrinsics_, width, height);
-    ColourCamera c = nominal_colour_camera(width, height, kNominalDepthToColourX);
+    ColourCamera c = ColourCamera::nominal(width, height, kNominalDepthToColourX);
     c.intrinsics = intrinsics_from_fov(width, height, hfov, vfov);
     return c;
   }
@@ -269,10 +269,7 @@ class OpenNI2Source : public Source {
   /// next depth frame waits in OpenNI2's queue meanwhile).
   void pair_colour(DepthFrame& frame, const std::string& where) {
     if (!colour_started_) {
-      frame.colour.resize(0, 0);
-      frame.colour_camera.reset();
-      frame.colour_error.clear();
-      frame.colour_timestamp_s = 0.0;
+      frame.clear_colour();
       return;
     }
     openni::VideoStream* streams[] = {&colour_stream_};

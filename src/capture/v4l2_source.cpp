@@ -266,7 +266,7 @@ class V4l2Source : public LiveMillimetreSource {
       start(uri, node);
       if (!colour_node.empty()) {
         colour_ = std::make_unique<V4l2ColourNode>(colour_node, width_, height_);
-        colour_camera_ = nominal_colour_camera(colour_->width(), colour_->height(), 0.0);
+        colour_camera_ = ColourCamera::nominal(colour_->width(), colour_->height(), 0.0);
       }
     } catch (...) {
       release();  // the destructor does not run for a half-built object
@@ -414,10 +414,7 @@ class V4l2Source : public LiveMillimetreSource {
   /// and while the colour node is behind it waits up to kColourWait for a nearer one.
   void pair_colour(DepthFrame& frame, const std::string& where) {
     if (!colour_camera_) {
-      frame.colour.resize(0, 0);
-      frame.colour_camera.reset();
-      frame.colour_error.clear();
-      frame.colour_timestamp_s = 0.0;
+      frame.clear_colour();
       return;
     }
     const auto deadline = std::chrono::steady_clock::now() + kColourWait;

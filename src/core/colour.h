@@ -46,6 +46,22 @@ struct ColourCamera {
     return true;
   }
 
+  /// A colour camera with nominal Kinect v1 intrinsics for colour images of width x height
+  /// (fx = fy = 525 * width / 640, principal point at the centre ((width - 1) / 2,
+  /// (height - 1) / 2)) at `depth_to_colour_x_m` along the depth camera's x axis (no rotation):
+  /// what a Kinect-class camera's colour camera is when nothing better is known.
+  static ColourCamera nominal(int width, int height, double depth_to_colour_x_m = 0.0) {
+    ColourCamera c;
+    c.intrinsics.width = width;
+    c.intrinsics.height = height;
+    c.intrinsics.fx = c.intrinsics.fy = 525.0 * width / 640.0;
+    c.intrinsics.cx = (width - 1) * 0.5;
+    c.intrinsics.cy = (height - 1) * 0.5;
+    c.T_colour_depth =
+        Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(depth_to_colour_x_m, 0.0, 0.0));
+    return c;
+  }
+
   /// A registered colour camera of a depth camera with `depth_intrinsics`.
   static ColourCamera registered_to(const Intrinsics& depth_intrinsics) {
     ColourCamera c;

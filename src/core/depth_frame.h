@@ -33,6 +33,13 @@ struct DepthFrame {
   /// corrupt colour file, a colour image of the wrong size, no colour frame near its timestamp.
   /// The depth is used all the same; the run counts and reports these.
   std::string colour_error;
+  /// This frame has no colour and its source none: every colour member emptied.
+  void clear_colour() {
+    colour.resize(0, 0);
+    colour_camera.reset();
+    colour_error.clear();
+    colour_timestamp_s = 0.0;
+  }
   /// Host steady-clock time at which the frame reached this process: set by live sources (the
   /// driver's frame callback or buffer wake-up); recordings leave it empty and the pipeline stamps
   /// the moment the frame is delivered. Where the capture latency starts.

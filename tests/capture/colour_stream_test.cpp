@@ -95,7 +95,7 @@ TEST(ColourDecode, MjpegFramesAndGarbage) {
 }
 
 TEST(ColourCameras, NominalAndRegisteredAtAnotherResolution) {
-  const ColourCamera nominal = nominal_colour_camera(640, 480, -0.025);
+  const ColourCamera nominal = ColourCamera::nominal(640, 480, -0.025);
   EXPECT_FALSE(nominal.registered);
   EXPECT_EQ(nominal.intrinsics.fx, 525.0);
   EXPECT_EQ(nominal.intrinsics.cx, 319.5);
@@ -173,7 +173,7 @@ TEST(ColourPairer, WaitsOnlyForAFlowingStreamThatIsBehind) {
 }
 
 TEST(ColourPairer, WrongSizesAndFailedFramesAreErrorsOfTheirDepthFrame) {
-  const ColourCamera camera = nominal_colour_camera(4, 3, 0.0);
+  const ColourCamera camera = ColourCamera::nominal(4, 3, 0.0);
   ColourPairer pairer(2);
   add(pairer, 1.0, Rgb8{9, 9, 9}, 5, 3);
   pairer.next_buffer();

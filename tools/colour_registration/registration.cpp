@@ -358,16 +358,6 @@ EdgeFrame make_edge_frame(const Image<std::uint16_t>& depth, double depth_scale,
   return frame;
 }
 
-ColourCamera nominal_colour_camera(int width, int height) {
-  ColourCamera c;
-  c.intrinsics.width = width;
-  c.intrinsics.height = height;
-  c.intrinsics.fx = c.intrinsics.fy = 525.0 * width / 640.0;
-  c.intrinsics.cx = (width - 1) * 0.5;
-  c.intrinsics.cy = (height - 1) * 0.5;
-  return c;
-}
-
 namespace {
 
 void collect_distances(const EdgeFrame& fr, const ColourCamera* camera, EdgeDistances& out,
@@ -705,7 +695,7 @@ RecordingResult register_recording(const std::string& folder, const RecordingOpt
     }
   }
   result.held_out = !eval_set.empty();
-  const ColourCamera nominal = nominal_colour_camera(colour_w, colour_h);
+  const ColourCamera nominal = ColourCamera::nominal(colour_w, colour_h);
   const auto fit_start = std::chrono::steady_clock::now();
   try {
     result.fit = fit_colour_camera(fit_set, nominal, options.fit, progress);

@@ -79,10 +79,6 @@ EdgeFrame make_edge_frame(const Image<std::uint16_t>& depth, double depth_scale,
                           const Intrinsics& depth_intrinsics, const Image<Rgb8>& colour,
                           const EdgeOptions& options, int frame_index = 0);
 
-/// The nominal Kinect v1 colour camera at width x height: fx = fy = 525 * width / 640, principal
-/// point at the image centre ((width - 1) / 2, (height - 1) / 2), identity transform.
-ColourCamera nominal_colour_camera(int width, int height);
-
 /// Distances from projected depth-edge points to the nearest colour edge.
 struct EdgeDistances {
   std::size_t points = 0;   ///< points that land inside the colour image (measured)

@@ -87,7 +87,7 @@ Intrinsics depth_camera() {
 /// The colour camera the tests must recover: 2.6 cm baseline with a few mm off-axis, a rotation
 /// of about 0.7 degrees, focal 532 px (the nominal 525 is the starting point), centred.
 ColourCamera true_colour_camera() {
-  ColourCamera c = nominal_colour_camera(640, 480);
+  ColourCamera c = ColourCamera::nominal(640, 480);
   c.intrinsics.fx = c.intrinsics.fy = 532.0;
   const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.4 * kPi / 180, Eigen::Vector3d::UnitX()) *
                              Eigen::AngleAxisd(-0.5 * kPi / 180, Eigen::Vector3d::UnitY()) *
@@ -156,7 +156,7 @@ TEST(ColourRegistration, RecoversAKnownRegistrationOfSyntheticPairs) {
   const std::vector<EdgeFrame> fit = synthetic_frames(0, 5);
   const std::vector<EdgeFrame> held_out = synthetic_frames(5, 2);
   for (const EdgeFrame& f : fit) ASSERT_GT(f.points.size(), 500u) << "frame " << f.frame;
-  const FitResult r = fit_colour_camera(fit, nominal_colour_camera(640, 480));
+  const FitResult r = fit_colour_camera(fit, ColourCamera::nominal(640, 480));
   const ColourCamera truth = true_colour_camera();
 
   const Eigen::Vector3d dt =
@@ -194,7 +194,7 @@ TEST(ColourRegistration, TooFewEdgesIsABadInputError) {
   frames[0].points.resize(50);
   frames[0].depth_pixels.resize(50);
   try {
-    fit_colour_camera(frames, nominal_colour_camera(640, 480));
+    fit_colour_camera(frames, ColourCamera::nominal(640, 480));
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ExitCode::kBadInput);
