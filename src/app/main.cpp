@@ -23,6 +23,7 @@
 #include "core/log.h"
 #include "core/status.h"
 #include "pipeline/output_folder.h"
+#include "serve/service.h"
 
 namespace aoscan {
 namespace {
@@ -323,6 +324,29 @@ int run(int argc, char** argv) {
   add_scans_options(*scans, scans_args);
 
   // An unknown word where the subcommand belongs: say so (CLI11 would say that one is missing).
+  ServiceOptions serve_args;
+  serve_args.version = AOSCAN_VERSION;
+  CLI::App* serve = app.add_subcommand(
+      "serve", "the capture and fusion service: HTTP/JSON API, live view and web page");
+  serve->add_option("--listen", serve_args.listen,
+                    "ADDR:PORT to listen on (IPv4); beyond 127.x.x.x it needs --token-file")
+      ->capture_default_str();
+  serve->add_option("--data", serve_args.data_dir,
+                    "folder of the recordings to replay and of the sessions (sessions/)")
+      ->capture_default_str();
+  serve->add_option("--token-file", serve_args.token_file,
+                    "file whose first line is the token every request must carry (Authorization: "
+                    "Bearer TOKEN, or the login page's cookie)")
+      ->check(CLI::ExistingFile);
+  serve->add_option("--config", serve_args.config_file,
+                    "configuration file (YAML or JSON) of every session")
+      ->check(CLI::ExistingFile);
+  serve->add_option("--set", serve_args.sets,
+                    "override one configuration key of every session: KEY=VALUE (repeatable)")
+      ->allow_extra_args(false);
+  serve->add_option("--threads", serve_args.threads, "worker threads of a session (default: all cores)")
+      ->check(whole_number(1, kMaxThreads));
+
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--log-level") {
@@ -334,7 +358,8 @@ int run(int argc, char** argv) {
         app.get_subcommands([&arg](CLI::App* sub) { return sub->get_name() == arg; });
     if (named.empty())
       return report(ExitCode::kUsage, "unknown subcommand '" + arg +
-                                           "' (replay, scan, record, devices, config or scans; "
+                                           "' (replay, scan, record, devices, config, scans or "
+                                           "serve; "
                                            "see aoscan --help)");
     break;
   }
@@ -374,6 +399,10 @@ int run(int argc, char** argv) {
     if (*devices) return static_cast<int>(run_devices());
     if (*config) return static_cast<int>(run_print_config(config_args));
     if (*scans) return static_cast<int>(run_scans_command(scans_args));
+    if (*serve) {
+      const StopSignals signals(stop_requested, export_progress);
+      return static_cast<int>(run_service(serve_args, stop_requested));
+    }
   } catch (const Error& e) {
     return report(e.code(), e.what());
   } catch (const std::exception& e) {

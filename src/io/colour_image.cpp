@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "io/png_write.h"
 
@@ -96,6 +97,20 @@ void write_colour_png(const std::string& path, const Image<Rgb8>& image) {
   static_assert(sizeof(Rgb8) == 3, "Rgb8 rows are PNG's RGB rows");
   write_png(path, image.width(), image.height(), PngFormat::kRgb8,
             [&image](int y) -> const void* { return image.row(y); });
+}
+
+void encode_colour_jpeg(const Image<Rgb8>& image, int quality, std::vector<std::uint8_t>& out) {
+  if (image.width() <= 0 || image.height() <= 0)
+    throw Error(ExitCode::kFailure, "JPEG encoding: empty image");
+  // OpenCV's codecs take BGR rows; the image's rows are RGB (and contiguous).
+  const cv::Mat rgb(image.height(), image.width(), CV_8UC3,
+                    const_cast<Rgb8*>(image.row(0)));
+  thread_local cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  const std::vector<int> params = {cv::IMWRITE_JPEG_QUALITY, std::clamp(quality, 1, 100)};
+  out.clear();
+  if (!cv::imencode(".jpg", bgr, out, params))
+    throw Error(ExitCode::kFailure, "JPEG encoding failed");
 }
 
 }  // namespace aoscan

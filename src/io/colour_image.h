@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/colour.h"
 #include "core/image.h"
@@ -32,5 +33,9 @@ Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rg
 /// Writes `image` as an 8-bit RGB PNG at `path` itself (wrap it in write_atomically() for an
 /// output). Throws like write_png().
 void write_colour_png(const std::string& path, const Image<Rgb8>& image);
+
+/// `image` encoded as a baseline JPEG of `quality` (1-100) into `out` (its allocation reused), for
+/// the service's live stream. Throws Error(kFailure) when the image is empty or the codec fails.
+void encode_colour_jpeg(const Image<Rgb8>& image, int quality, std::vector<std::uint8_t>& out);
 
 }  // namespace aoscan

@@ -214,11 +214,12 @@ struct ChainSetup {
 
 ChainSetup build_stages(const RunOptions& options, Processing& processing) {
   ChainSetup chain{processing.stages(), nullptr};
-  if (!options.live_view && options.snapshot_dir.empty()) return chain;
+  const bool remote = static_cast<bool>(options.remote_view);
+  if (!options.live_view && options.snapshot_dir.empty() && !remote) return chain;
   ViewStageOptions vopts;
   vopts.stage_names.push_back("capture");
   for (const StageDef& stage : chain.stages) vopts.stage_names.push_back(stage.name);
-  vopts.publish = options.live_view;
+  vopts.publish = options.live_view || remote;
   if (!options.snapshot_dir.empty()) {
     SnapshotOptions snapshots;
     snapshots.dir = options.snapshot_dir;
@@ -228,9 +229,9 @@ ChainSetup build_stages(const RunOptions& options, Processing& processing) {
   chain.view = std::make_unique<ViewStage>(vopts);  // usage_error for a bad snapshot folder
   processing.set_view_products(true);
   ViewStage* stage = chain.view.get();
-  // With the window alone, view products (the MVAO image, a grid lookup per raycast pixel, and
-  // the view frame) are built only once the window has taken the last one: it draws on CPU
-  // time fusion leaves, and products it would never show would take that time from fusion.
+  // With the window (or the remote view) alone, view products (the MVAO image, a grid lookup
+  // per raycast pixel, and the view frame) are built only once the window has taken the last
+  // one: it draws on CPU time fusion leaves, and products it would never show would take that time from fusion.
   // Snapshots need every frame's.
   if (options.snapshot_dir.empty())
     processing.set_view_demand([stage](std::uint64_t built) { return stage->caught_up(built); });
@@ -258,18 +259,22 @@ bool run_with_controls(Source& source, const RunOptions& options, Processing& pr
   std::unique_ptr<WindowThread> window;
   if (options.live_view) {
     const bool snapshots = !options.snapshot_dir.empty();
+    const bool remote = static_cast<bool>(options.remote_view);
     ViewStage* stage = chain.view.get();
     window = std::make_unique<WindowThread>(
-        *chain.view, commands, "aoscan: " + source.name(), [stage, snapshots, &processing] {
+        *chain.view, commands, "aoscan: " + source.name(), [stage, snapshots, remote, &processing] {
+          if (remote) return;  // the remote view goes on taking the frames
           stage->set_publish(false);  // nothing shows the frames: stop building them for it
           if (!snapshots) processing.set_view_products(false);
         });
   }
+  if (options.remote_view) options.remote_view(chain.view.get());
   pump.start();
   const std::optional<HostCpuTimes> host_before = read_host_cpu_times();
   result.pipeline = run_pipeline(source, chain.stages, popts, chain_stop);
   result.session.host_steal_percent = steal_percent(host_before, read_host_cpu_times());
   pump.stop();
+  if (options.remote_view) options.remote_view(nullptr);
   if (window) {
     window->stop();
     result.session.live_view_shown = window->shown();

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -17,6 +18,8 @@
 #include "render/view_commands.h"
 
 namespace aoscan {
+
+class ViewStage;
 
 /// The options of one run (`replay`, `scan`), filled by the command line. The session reads its
 /// own parts and hands `chain` to the stage chain.
@@ -51,6 +54,12 @@ struct RunOptions {
   /// window feeds. Polled every few milliseconds while the chain runs: reset, pause/resume,
   /// write outputs now, quit (= SIGINT: stop capture, finish the frames in flight, write outputs).
   ViewCommandQueue* commands = nullptr;
+  /// A consumer of the view frames besides the window (the service's live stream): called with
+  /// the view stage once the chain is built and with null once the chain has stopped. It takes
+  /// frames with ViewStage::take_latest() from its own thread; frames are built only as fast as
+  /// it takes them (with the window: as fast as the slower of the two). When the call with null
+  /// returns, the consumer must hold no frame (they return to the stage's pool).
+  std::function<void(ViewStage*)> remote_view;
   /// Told where the export stands (may be null): the signal handling reports it.
   ExportProgress* export_progress = nullptr;
 };

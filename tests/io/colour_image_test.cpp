@@ -85,6 +85,30 @@ TEST(ColourImage, JpegWithinItsLoss) {
   }
 }
 
+TEST(ColourImage, EncodedJpegDecodesWithinItsLossAndKeepsRgbOrder) {
+  // Two flat halves (red-ish left, blue-ish right): a swap of R and B would be 160 levels off.
+  Image<Rgb8> image(32, 16);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 32; ++x) image(x, y) = x < 16 ? Rgb8{200, 120, 40} : Rgb8{30, 60, 190};
+  std::vector<std::uint8_t> jpeg = {1, 2, 3};  // replaced
+  encode_colour_jpeg(image, 95, jpeg);
+  ASSERT_GT(jpeg.size(), 2u);
+  EXPECT_EQ(jpeg[0], 0xFF);  // JPEG's start-of-image marker
+  EXPECT_EQ(jpeg[1], 0xD8);
+  Image<Rgb8> out;
+  ASSERT_TRUE(decode_colour_image(jpeg.data(), jpeg.size(), out, "encoded").is_ok());
+  ASSERT_EQ(out.width(), 32);
+  ASSERT_EQ(out.height(), 16);
+  for (int y = 0; y < 16; ++y)
+    for (int x : {2, 5, 26, 29}) {  // away from the edge between the halves
+      const Rgb8 want = image(x, y);
+      EXPECT_NEAR(out(x, y).r, want.r, 4) << x << "," << y;
+      EXPECT_NEAR(out(x, y).g, want.g, 4) << x << "," << y;
+      EXPECT_NEAR(out(x, y).b, want.b, 4) << x << "," << y;
+    }
+  EXPECT_THROW(encode_colour_jpeg(Image<Rgb8>(), 90, jpeg), Error);
+}
+
 TEST(ColourImage, WrittenPngReadsBackExactly) {
   ScratchDir dir;
   Image<Rgb8> image(kWidth, kHeight);

@@ -1,0 +1,376 @@
+// The service on loopback: HTTP through civetweb, the size limits, the live view over WebSocket,
+// many connections, garbage, and the command line's checks.
+#include "serve/service.h"
+
+#include <arpa/inet.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdlib>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include <civetweb.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "io/colour_image.h"
+#include "serve/live_stream.h"
+#include "serve/sessions.h"
+#include "support/scratch_dir.h"
+
+namespace aoscan {
+namespace {
+
+using testing::ScratchDir;
+
+struct Reply {
+  int status = 0;
+  std::string body;
+};
+
+/// One request over a new connection (civetweb's client).
+Reply http(int port, const std::string& method, const std::string& path,
+           const std::string& body = "", const std::string& extra_headers = "") {
+  char error[256] = "";
+  mg_connection* conn = mg_connect_client("127.0.0.1", port, 0, error, sizeof(error));
+  if (!conn) return {-1, error};
+  mg_printf(conn, "%s %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n%sContent-Length: %zu\r\n\r\n",
+            method.c_str(), path.c_str(), extra_headers.c_str(), body.size());
+  if (!body.empty()) mg_write(conn, body.data(), body.size());
+  Reply reply;
+  if (mg_get_response(conn, error, sizeof(error), 30000) >= 0) {
+    reply.status = mg_get_response_info(conn)->status_code;
+    char buffer[8192];
+    int n;
+    while ((n = mg_read(conn, buffer, sizeof(buffer))) > 0) reply.body.append(buffer, n);
+  } else {
+    reply.status = -1;
+    reply.body = error;
+  }
+  mg_close_connection(conn);
+  return reply;
+}
+
+/// What a WebSocket client received.
+struct Received {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<std::string> texts;
+  std::vector<std::string> frames;
+  bool closed = false;
+};
+
+int on_data(mg_connection*, int flags, char* data, std::size_t size, void* user) {
+  auto* r = static_cast<Received*>(user);
+  const int opcode = flags & 0x0f;
+  std::lock_guard<std::mutex> lock(r->mutex);
+  if (opcode == MG_WEBSOCKET_OPCODE_TEXT) r->texts.emplace_back(data, size);
+  if (opcode == MG_WEBSOCKET_OPCODE_BINARY) r->frames.emplace_back(data, size);
+  r->changed.notify_all();
+  return 1;
+}
+
+void on_close(const mg_connection*, void* user) {
+  auto* r = static_cast<Received*>(user);
+  std::lock_guard<std::mutex> lock(r->mutex);
+  r->closed = true;
+  r->changed.notify_all();
+}
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void start(const std::string& token_file = "") {
+    ServiceOptions options;
+    options.listen = "127.0.0.1:0";
+    options.data_dir = scratch_.file("data");
+    options.token_file = token_file;
+    options.threads = 2;
+    options.version = "test";
+    service_ = std::make_unique<Service>(options);
+    port_ = service_->port();
+    ASSERT_GT(port_, 0);
+  }
+  ScratchDir scratch_;
+  std::unique_ptr<Service> service_;
+  int port_ = 0;
+};
+
+TEST_F(ServiceTest, AnswersOverLoopbackAndLimitsBodies) {
+  start();
+  Reply r = http(port_, "GET", "/api/status");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(nlohmann::json::parse(r.body)["version"], "test");
+  r = http(port_, "GET", "/");
+  EXPECT_EQ(r.status, 200);
+  EXPECT_NE(r.body.find("<title>aoscan</title>"), std::string::npos);
+  r = http(port_, "POST", "/api/sessions", std::string(70 * 1024, 'x'));
+  EXPECT_EQ(r.status, 413);
+  EXPECT_NE(r.body.find("larger than 65536 bytes"), std::string::npos);
+  r = http(port_, "POST", "/api/sessions", "{\"source\": \"nosuch\"}");
+  EXPECT_EQ(r.status, 404);
+  EXPECT_EQ(nlohmann::json::parse(r.body)["error"],
+            "source 'nosuch': no such recording in the data folder");
+  // A request line with a percent-encoded traversal is cleaned by the server, then refused.
+  r = http(port_, "GET", "/api/sessions/x/files/..%2F..%2F..%2Fetc%2Fpasswd");
+  EXPECT_GE(r.status, 400);
+  EXPECT_EQ(r.body.find("root:"), std::string::npos);
+  // Header fields beyond the limit: the connection is refused, the service goes on.
+  const std::string huge = "X-Filler: " + std::string(20000, 'a') + "\r\n";
+  r = http(port_, "GET", "/api/status", "", huge);
+  EXPECT_NE(r.status, 200);
+  EXPECT_EQ(http(port_, "GET", "/api/status").status, 200);
+}
+
+TEST_F(ServiceTest, TheLiveViewStreamsChangingFramesAndTheStatus) {
+  start();
+  Reply r = http(port_, "POST", "/api/sessions",
+                 R"({"source": "synth:corner?frames=3000", "realtime": true})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+
+  Received received;
+  char error[256] = "";
+  const std::string path = "/api/sessions/" + id + "/live?view=mvao";
+  mg_connection* ws = mg_connect_websocket_client("127.0.0.1", port_, 0, error, sizeof(error),
+                                                  path.c_str(), nullptr, on_data, on_close,
+                                                  &received);
+  ASSERT_NE(ws, nullptr) << error;
+  {
+    std::unique_lock<std::mutex> lock(received.mutex);
+    received.changed.wait_for(lock, std::chrono::seconds(60),
+                              [&] { return received.frames.size() >= 4 && received.texts.size() >= 2; });
+  }
+  std::vector<std::string> frames;
+  std::vector<std::string> texts;
+  {
+    std::lock_guard<std::mutex> lock(received.mutex);
+    frames = received.frames;
+    texts = received.texts;
+  }
+  ASSERT_GE(frames.size(), 4u);
+  ASSERT_GE(texts.size(), 2u);
+  // Each frame is a JPEG of the depth camera's size; not all the same; not blank.
+  bool changed = false;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    Image<Rgb8> image;
+    ASSERT_TRUE(decode_colour_image(reinterpret_cast<const std::uint8_t*>(frames[i].data()),
+                                    frames[i].size(), image, "frame")
+                    .is_ok());
+    EXPECT_EQ(image.width(), 640);
+    EXPECT_EQ(image.height(), 480);
+    int lit = 0;
+    for (int y = 0; y < image.height(); y += 8)
+      for (int x = 0; x < image.width(); x += 8) lit += image(x, y).r > 60 ? 1 : 0;
+    EXPECT_GT(lit, 100) << "frame " << i << " is nearly blank";
+    if (i > 0 && frames[i] != frames[0]) changed = true;
+  }
+  EXPECT_TRUE(changed);
+  const nlohmann::json status = nlohmann::json::parse(texts.back());
+  EXPECT_EQ(status["session"], id);
+  EXPECT_EQ(status["state"]["state"], "running");
+  EXPECT_EQ(status["viewers"], 1);
+
+  // Garbage from the client changes nothing; a view request does.
+  const std::string garbage = "\x01\x02{not json";
+  mg_websocket_client_write(ws, MG_WEBSOCKET_OPCODE_TEXT, garbage.data(), garbage.size());
+  const std::string depth = R"({"view": "depth"})";
+  mg_websocket_client_write(ws, MG_WEBSOCKET_OPCODE_TEXT, depth.data(), depth.size());
+  mg_close_connection(ws);
+
+  r = http(port_, "POST", "/api/sessions/" + id + "/stop");
+  EXPECT_EQ(r.status, 200) << r.body;
+  for (int i = 0; i < 3000; ++i) {
+    r = http(port_, "GET", "/api/status");
+    if (nlohmann::json::parse(r.body)["session"].is_null()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_TRUE(nlohmann::json::parse(r.body)["session"].is_null());
+  r = http(port_, "GET", "/api/sessions/" + id + "/files/mesh.ply");
+  EXPECT_EQ(r.status, 200);
+  EXPECT_EQ(r.body.rfind("ply\n", 0), 0u);
+}
+
+TEST_F(ServiceTest, ManyConnectionsAndAViewerThatVanishesMidFrame) {
+  start();
+  // 200 raw connections opened at once and dropped (one half sending half a request).
+  std::vector<int> sockets;
+  for (int i = 0; i < 200; ++i) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port_));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0) {
+      if (i % 2 == 0) {
+        const char partial[] = "GET /api/sta";
+        (void)!::write(fd, partial, sizeof(partial) - 1);
+      }
+      sockets.push_back(fd);
+    } else {
+      ::close(fd);
+    }
+  }
+  EXPECT_GT(sockets.size(), 100u);
+  for (int fd : sockets) ::close(fd);
+  // A WebSocket viewer that goes away without a close frame while frames are sent.
+  Reply r = http(port_, "POST", "/api/sessions",
+                 R"({"source": "synth:corner?frames=3000", "realtime": true})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  for (int k = 0; k < 3; ++k) {
+    Received received;
+    char error[256] = "";
+    mg_connection* ws = mg_connect_websocket_client("127.0.0.1", port_, 0, error, sizeof(error),
+                                                    "/api/sessions/current/live", nullptr,
+                                                    on_data, on_close, &received);
+    ASSERT_NE(ws, nullptr) << error;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    mg_close_connection(ws);
+  }
+  // The service goes on answering and fusing.
+  r = http(port_, "GET", "/api/sessions/" + id);
+  ASSERT_EQ(r.status, 200);
+  const std::size_t before = nlohmann::json::parse(r.body)["live"]["frames_processed"];
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  r = http(port_, "GET", "/api/sessions/" + id);
+  EXPECT_GT(nlohmann::json::parse(r.body)["live"]["frames_processed"].get<std::size_t>(), before);
+  EXPECT_EQ(http(port_, "POST", "/api/sessions/" + id + "/stop").status, 200);
+}
+
+TEST_F(ServiceTest, WithATokenEverythingNeedsIt) {
+  const std::string token_file = scratch_.file("token");
+  std::ofstream(token_file) << "  s3cret-token-of-twenty  \nignored\n";
+  start(token_file);
+  EXPECT_EQ(http(port_, "GET", "/api/status").status, 401);
+  EXPECT_EQ(http(port_, "GET", "/api/status", "", "Authorization: Bearer s3cret-token-of-twenty\r\n").status,
+            200);
+  Received received;
+  char error[256] = "";
+  mg_connection* ws = mg_connect_websocket_client("127.0.0.1", port_, 0, error, sizeof(error),
+                                                  "/api/sessions/current/live", nullptr, on_data,
+                                                  on_close, &received);
+  if (ws) {  // refused: closed before any message
+    std::unique_lock<std::mutex> lock(received.mutex);
+    received.changed.wait_for(lock, std::chrono::seconds(5), [&] { return received.closed; });
+    EXPECT_TRUE(received.texts.empty());
+    lock.unlock();
+    mg_close_connection(ws);
+  }
+}
+
+TEST(ServiceOptions, ListenAddressesAndTokens) {
+  EXPECT_EQ(parse_listen_address("127.0.0.1:8080"), std::make_pair(std::string("127.0.0.1"), 8080));
+  EXPECT_EQ(parse_listen_address("localhost:0"), std::make_pair(std::string("127.0.0.1"), 0));
+  for (const char* bad : {"8080", ":8080", "127.0.0.1:", "127.0.0.1:65536", "127.0.0.1:80a",
+                          "example.org:80", "[::1]:80", "1.2.3:80"})
+    EXPECT_THROW(parse_listen_address(bad), Error) << bad;
+  EXPECT_TRUE(loopback_address("127.0.0.1"));
+  EXPECT_TRUE(loopback_address("127.8.9.10"));
+  EXPECT_FALSE(loopback_address("0.0.0.0"));
+  EXPECT_FALSE(loopback_address("192.168.1.2"));
+
+  ScratchDir scratch;
+  std::ofstream(scratch.file("short")) << "abc\n";
+  std::ofstream(scratch.file("empty"));
+  std::ofstream(scratch.file("quoted")) << "abcdefghijkl\"mnopq\n";
+  for (const char* name : {"short", "empty", "quoted", "missing"})
+    EXPECT_THROW(read_token_file(scratch.file(name)), Error) << name;
+
+  ServiceOptions open;
+  open.listen = "0.0.0.0:0";
+  open.data_dir = scratch.file("data");
+  try {
+    Service service(open);
+    FAIL() << "listening on 0.0.0.0 without a token was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::kUsage);
+    EXPECT_NE(std::string(e.what()).find("needs --token-file"), std::string::npos);
+  }
+}
+
+TEST(ServiceCommand, ABusyPortIsAUsageError) {
+  ScratchDir scratch;
+  ServiceOptions options;
+  options.listen = "127.0.0.1:0";
+  options.data_dir = scratch.file("data");
+  Service first(options);
+  const std::string listen = "127.0.0.1:" + std::to_string(first.port());
+  const std::string command = std::string(AOSCAN_BINARY) + " serve --listen " + listen +
+                              " --data " + scratch.file("data2") + " 2>" + scratch.file("err");
+  const int status = std::system(command.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  std::ifstream err(scratch.file("err"));
+  const std::string text((std::istreambuf_iterator<char>(err)), {});
+  EXPECT_NE(text.find("--listen " + listen + ": cannot listen there"), std::string::npos) << text;
+}
+
+/// A port nobody listens on now (the kernel's choice for a socket bound to port 0).
+int free_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address));
+  socklen_t size = sizeof(address);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size);
+  ::close(fd);
+  return ntohs(address.sin_port);
+}
+
+TEST(ServiceCommand, SessionsOfAKilledServiceAreKeptOrMarkedInterrupted) {
+  ScratchDir scratch;
+  const int port = free_port();
+  const std::string listen = "127.0.0.1:" + std::to_string(port);
+  const std::string data = scratch.file("data");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string log = scratch.file("log");
+    freopen(log.c_str(), "w", stderr);
+    execl(AOSCAN_BINARY, AOSCAN_BINARY, "serve", "--listen", listen.c_str(), "--data",
+          data.c_str(), "--threads", "2", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  Reply r;
+  for (int i = 0; i < 500 && r.status != 200; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    r = http(port, "GET", "/api/status");
+  }
+  ASSERT_EQ(r.status, 200) << "the service did not start";
+  // One session finishes; the next is running when the service is killed.
+  r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=5"})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  const std::string finished = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  for (int i = 0; i < 3000; ++i) {
+    r = http(port, "GET", "/api/sessions/" + finished);
+    if (nlohmann::json::parse(r.body)["state"] != "running") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=3000", "realtime": true})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  const std::string cut = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+
+  SessionManagerOptions options;
+  options.data_dir = data;
+  SessionManager restarted(options);
+  const nlohmann::json a = restarted.describe(finished);
+  EXPECT_EQ(a["state"], "finished");
+  EXPECT_EQ(a["stats"]["frames_processed"], 5);
+  const nlohmann::json b = restarted.describe(cut);
+  EXPECT_EQ(b["state"], "interrupted");
+  EXPECT_TRUE(std::filesystem::exists(restarted.file(finished, "mesh.ply")));
+}
+
+}  // namespace
+}  // namespace aoscan
