@@ -76,9 +76,13 @@ SessionRequest session_request(const std::string& body) {
           value.get<std::uint64_t>() > (std::uint64_t{1} << 34))
         throw ServiceError(400, "\"frames\" must be a whole number from 1 to 17179869184");
       request.max_frames = value.get<std::size_t>();
+    } else if (key == "loop") {
+      if (!value.is_number_integer())
+        throw ServiceError(400, "\"loop\" must be a whole number (the passes, as replay --loop)");
+      request.loop = value.get<std::int64_t>();  // its range is checked with the source
     } else {
       throw ServiceError(400, "unknown key \"" + key +
-                                  "\" (source, set, realtime and frames are understood)");
+                                  "\" (source, set, realtime, frames and loop are understood)");
     }
   }
   if (request.source.empty()) throw ServiceError(400, "\"source\" is missing");

@@ -10,6 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "capture/loop_source.h"
 #include "capture/source.h"
 #include "core/status.h"
 #include "io/atomic_write.h"
@@ -187,6 +188,7 @@ std::string SessionManager::start(const SessionRequest& request) {
   std::unique_ptr<Source> source;
   try {
     source = open_source(spec);
+    if (request.loop) source = make_loop_source(std::move(source), *request.loop);
   } catch (const Error& e) {
     // Name the source as the client gave it, not the service's path of it.
     std::string message = one_line(e.what());
@@ -211,6 +213,7 @@ std::string SessionManager::start(const SessionRequest& request) {
                      {"state", "running"},
                      {"started", utc_now("%Y-%m-%dT%H:%M:%SZ")}};
   if (request.max_frames) running->record["frames"] = *request.max_frames;
+  if (request.loop) running->record["loop"] = *request.loop;
   try {
     write_record(running->record);
   } catch (const Error& e) {
@@ -247,18 +250,16 @@ std::string SessionManager::start(const SessionRequest& request) {
     }
     ended["ended"] = utc_now("%Y-%m-%dT%H:%M:%SZ");
     r->source.reset();  // a camera is free for the next session
-    nlohmann::json record;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      r->record.update(ended);
-      record = r->record;
-    }
+    // The record on disk and in memory change together: once a client sees the session ended,
+    // the next one can start.
+    std::lock_guard<std::mutex> lock(mutex_);
+    r->record.update(ended);
     try {
-      write_record(record);
+      write_record(r->record);
     } catch (const std::exception& e) {
-      spdlog::error("serve: session {}: {}", record.value("id", ""), e.what());
+      spdlog::error("serve: session {}: {}", r->id, e.what());
     }
-    spdlog::info("serve: session {} {}", record.value("id", ""), record.value("state", ""));
+    spdlog::info("serve: session {} {}", r->id, r->record.value("state", ""));
     r->done.store(true);
   });
   return id;

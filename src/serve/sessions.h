@@ -46,6 +46,7 @@ struct SessionRequest {
   std::vector<std::string> sets;   ///< KEY=VALUE, after the service's
   bool realtime = false;           ///< pace a recording by its timestamps (as --realtime)
   std::optional<std::size_t> max_frames;  ///< as --frames
+  std::optional<std::int64_t> loop;       ///< as replay --loop N (a recording or synth: scene)
 };
 
 class SessionManager {

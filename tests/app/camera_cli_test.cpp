@@ -24,33 +24,13 @@ CliRun run(const std::string& env, const std::string& args, const fs::path& scra
   return aoscan::testing::run_aoscan(args, scratch, env);
 }
 
-/// Environment that makes aoscan's libfreenect the fakenect replay of `dump`.
-std::string fakenect_env(const fs::path& dump) {
-  return "LD_LIBRARY_PATH='" AOSCAN_FAKENECT_DIR "' FAKENECT_PATH='" + dump.string() + "'";
-}
-
-/// A fakenect dump of `frames` synthetic frames; empty path when fakenect is not installed.
-fs::path make_dump(const fs::path& dir, int frames, const std::string& extra = "") {
-  if (!fs::exists(fs::path(AOSCAN_FAKENECT_DIR) / "libfreenect.so")) return {};
-  const fs::path rec = dir / "rec";
-  const fs::path dump = dir / "dump";
-  CliRun r = run("",
-                 "record 'synth:corner?frames=" + std::to_string(frames) + extra + "' '" +
-                     rec.string() + "'",
-                 dir);
-  EXPECT_EQ(r.exit_code, 0) << r.err;
-  const fs::path tool = fs::path(AOSCAN_BINARY).parent_path() / "aoscan-fakenect-dump";
-  if (!fs::exists(tool)) return {};
-  const std::string cmd =
-      "'" + tool.string() + "' '" + rec.string() + "' '" + dump.string() + "' 2>/dev/null";
-  EXPECT_EQ(std::system(cmd.c_str()), 0);
-  return dump;
-}
+using aoscan::testing::fakenect_env;
+using aoscan::testing::make_fakenect_dump;
 
 TEST(CameraCli, ScanUntilTheKinectIsUnpluggedWritesOutputsAndExitsFour) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("scan");
-  const fs::path dump = make_dump(dir, 10);
+  const fs::path dump = make_fakenect_dump(dir, 10);
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const CliRun r =
       run(fakenect_env(dump),
@@ -74,7 +54,7 @@ TEST(CameraCli, ScanUntilTheKinectIsUnpluggedWritesOutputsAndExitsFour) {
 TEST(CameraCli, DevicesListsTheKinectAndAutoScansIt) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("devices");
-  const fs::path dump = make_dump(dir, 4);
+  const fs::path dump = make_fakenect_dump(dir, 4);
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const CliRun d = run(fakenect_env(dump), "devices", dir);
   EXPECT_EQ(d.exit_code, 0) << d.err;
@@ -88,7 +68,7 @@ TEST(CameraCli, DevicesListsTheKinectAndAutoScansIt) {
 TEST(CameraCli, RecordFromTheLiveKinectKeepsEveryFrameUntilTheUnplug) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("record");
-  const fs::path dump = make_dump(dir, 12);
+  const fs::path dump = make_fakenect_dump(dir, 12);
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const fs::path out = dir / "kinect";
   const CliRun r = run(fakenect_env(dump), "record freenect '" + out.string() + "'", dir);
@@ -201,7 +181,7 @@ TEST(CameraCli, BadCameraFileIsExitTwoNamingItBeforeAnythingIsOpened) {
 TEST(CameraCli, KinectColourIsRecordedAndScannedWithTheCameraFile) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("kinect_colour");
-  const fs::path dump = make_dump(dir, 6, "&colour=on");
+  const fs::path dump = make_fakenect_dump(dir, 6, "&colour=on");
   if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
   const fs::path camera = write_camera(dir);
   const fs::path out = dir / "kinect";

@@ -210,6 +210,8 @@ TEST_F(ApiTest, BadSessionRequestsAreRefusedWithTheirReason) {
       {R"({"source": "synth:corner", "realtime": "yes"})", 400, "\"realtime\" must be true"},
       {R"({"source": "synth:corner", "bogus": 1})", 400, "unknown key \"bogus\""},
       {R"({"source": "synth:nosuchscene"})", 400, "nosuchscene"},
+      {R"({"source": "synth:corner", "loop": "2"})", 400, "\"loop\" must be a whole number"},
+      {R"({"source": "synth:corner", "loop": 0})", 400, "--loop"},
   };
   for (const Case& c : cases) {
     const HttpResponse r = api_->handle(request("POST", "/api/sessions", c.body));

@@ -22,6 +22,7 @@
 #include "io/colour_image.h"
 #include "serve/live_stream.h"
 #include "serve/sessions.h"
+#include "support/cli_util.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
@@ -311,55 +312,58 @@ TEST(ServiceCommand, ABusyPortIsAUsageError) {
   EXPECT_NE(text.find("--listen " + listen + ": cannot listen there"), std::string::npos) << text;
 }
 
-/// A port nobody listens on now (the kernel's choice for a socket bound to port 0).
-int free_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address));
-  socklen_t size = sizeof(address);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size);
-  ::close(fd);
-  return ntohs(address.sin_port);
+/// `aoscan serve` as a child process on a port of its choice (read from its first line).
+class ChildService {
+ public:
+  ChildService(const testing::ScratchDir& scratch, const std::string& data,
+               const std::string& env = "")
+      : process_("serve --listen 127.0.0.1:0 --threads 2 --data '" + data + "'",
+                 scratch.path(""), env) {
+    const std::string prefix = "aoscan: serving on http://127.0.0.1:";
+    for (int i = 0; i < 500 && port_ == 0 && !process_.poll(); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      const std::string err = process_.output().err;
+      if (const std::size_t at = err.find(prefix); at != std::string::npos)
+        port_ = std::atoi(err.c_str() + at + prefix.size());
+    }
+  }
+  int port() const { return port_; }
+  testing::AoscanProcess& process() { return process_; }
+
+ private:
+  testing::AoscanProcess process_;
+  int port_ = 0;
+};
+
+/// Polls GET /api/sessions/ID until its state is not `running` (at most a minute).
+nlohmann::json wait_ended(int port, const std::string& id) {
+  nlohmann::json s;
+  for (int i = 0; i < 3000; ++i) {
+    const Reply r = http(port, "GET", "/api/sessions/" + id);
+    s = nlohmann::json::parse(r.body);
+    if (s["state"] != "running") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return s;
 }
 
 TEST(ServiceCommand, SessionsOfAKilledServiceAreKeptOrMarkedInterrupted) {
   ScratchDir scratch;
-  const int port = free_port();
-  const std::string listen = "127.0.0.1:" + std::to_string(port);
   const std::string data = scratch.file("data");
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    const std::string log = scratch.file("log");
-    freopen(log.c_str(), "w", stderr);
-    execl(AOSCAN_BINARY, AOSCAN_BINARY, "serve", "--listen", listen.c_str(), "--data",
-          data.c_str(), "--threads", "2", static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  Reply r;
-  for (int i = 0; i < 500 && r.status != 200; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    r = http(port, "GET", "/api/status");
-  }
-  ASSERT_EQ(r.status, 200) << "the service did not start";
+  ChildService service(scratch, data);
+  const int port = service.port();
+  ASSERT_GT(port, 0) << "the service did not start: " << service.process().output().err;
   // One session finishes; the next is running when the service is killed.
-  r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=5"})");
+  Reply r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=5"})");
   ASSERT_EQ(r.status, 201) << r.body;
   const std::string finished = nlohmann::json::parse(r.body)["id"].get<std::string>();
-  for (int i = 0; i < 3000; ++i) {
-    r = http(port, "GET", "/api/sessions/" + finished);
-    if (nlohmann::json::parse(r.body)["state"] != "running") break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  EXPECT_EQ(wait_ended(port, finished)["state"], "finished");
   r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=3000", "realtime": true})");
   ASSERT_EQ(r.status, 201) << r.body;
   const std::string cut = nlohmann::json::parse(r.body)["id"].get<std::string>();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  kill(child, SIGKILL);
-  int status = 0;
-  waitpid(child, &status, 0);
+  ::kill(service.process().pid(), SIGKILL);
+  service.process().wait_for(std::chrono::seconds(10));
 
   SessionManagerOptions options;
   options.data_dir = data;
@@ -367,9 +371,47 @@ TEST(ServiceCommand, SessionsOfAKilledServiceAreKeptOrMarkedInterrupted) {
   const nlohmann::json a = restarted.describe(finished);
   EXPECT_EQ(a["state"], "finished");
   EXPECT_EQ(a["stats"]["frames_processed"], 5);
-  const nlohmann::json b = restarted.describe(cut);
-  EXPECT_EQ(b["state"], "interrupted");
+  EXPECT_EQ(restarted.describe(cut)["state"], "interrupted");
   EXPECT_TRUE(std::filesystem::exists(restarted.file(finished, "mesh.ply")));
+}
+
+TEST(ServiceCommand, ACameraUnpluggedMidSessionFailsItAndTheServiceGoesOn) {
+  ScratchDir scratch;
+  const std::filesystem::path dump = testing::make_fakenect_dump(scratch.path(""), 8);
+  if (dump.empty()) GTEST_SKIP() << "fakenect or aoscan-fakenect-dump not available";
+  ChildService service(scratch, scratch.file("data"), testing::fakenect_env(dump));
+  const int port = service.port();
+  ASSERT_GT(port, 0) << "the service did not start: " << service.process().output().err;
+  Reply r = http(port, "POST", "/api/sessions", R"({"source": "freenect"})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const nlohmann::json s = wait_ended(port, id);
+  EXPECT_EQ(s["state"], "failed");
+  EXPECT_EQ(s["exit_code"], 4);
+  EXPECT_NE(s["error"].get<std::string>().find("unplugged"), std::string::npos) << s.dump();
+  EXPECT_EQ(s["stats"]["frames_read"], 8);  // what came before the unplug is kept
+  EXPECT_EQ(http(port, "GET", "/api/sessions/" + id + "/files/mesh.ply").status, 200);
+  // The service goes on: it answers and runs the next session.
+  r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=4"})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  EXPECT_EQ(wait_ended(port, nlohmann::json::parse(r.body)["id"].get<std::string>())["state"],
+            "finished");
+}
+
+TEST_F(ServiceTest, ARecordingWithoutOneUsableFrameFailsTheSessionOnly) {
+  start();
+  const std::filesystem::path rec = scratch_.path("data") / "broken";
+  std::filesystem::create_directories(rec);
+  std::ofstream(rec / "depth.txt") << "1.0 depth/1.png\n1.1 depth/2.png\n1.2 depth/3.png\n";
+  Reply r = http(port_, "POST", "/api/sessions", R"({"source": "broken"})");
+  ASSERT_EQ(r.status, 201) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const nlohmann::json s = wait_ended(port_, id);
+  EXPECT_EQ(s["state"], "failed");
+  EXPECT_EQ(s["exit_code"], 3);
+  EXPECT_NE(s["error"].get<std::string>().find("no usable frame (3 unreadable)"), std::string::npos)
+      << s.dump();
+  EXPECT_EQ(http(port_, "GET", "/api/status").status, 200);
 }
 
 }  // namespace

@@ -114,6 +114,32 @@ inline void set_timestamps(const fs::path& rec, const std::vector<std::string>& 
   std::ofstream(rec / "depth.txt") << out.str();
 }
 
+#ifdef AOSCAN_FAKENECT_DIR
+/// Environment that makes aoscan's libfreenect the fakenect replay of `dump`.
+inline std::string fakenect_env(const fs::path& dump) {
+  return "LD_LIBRARY_PATH='" AOSCAN_FAKENECT_DIR "' FAKENECT_PATH='" + dump.string() + "'";
+}
+
+/// A fakenect dump (dir/dump) of `frames` synthetic frames (`extra` parameters of synth:corner);
+/// an empty path when fakenect or aoscan-fakenect-dump is not there. The dump's end is the
+/// camera's unplug.
+inline fs::path make_fakenect_dump(const fs::path& dir, int frames, const std::string& extra = "") {
+  if (!fs::exists(fs::path(AOSCAN_FAKENECT_DIR) / "libfreenect.so")) return {};
+  const fs::path rec = dir / "rec";
+  const fs::path dump = dir / "dump";
+  const CliRun r = run_aoscan(
+      "record 'synth:corner?frames=" + std::to_string(frames) + extra + "' '" + rec.string() + "'",
+      dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const fs::path tool = fs::path(AOSCAN_BINARY).parent_path() / "aoscan-fakenect-dump";
+  if (!fs::exists(tool)) return {};
+  const std::string cmd =
+      "'" + tool.string() + "' '" + rec.string() + "' '" + dump.string() + "' 2>/dev/null";
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+  return dump;
+}
+#endif
+
 /// aoscan running in the background, for tests that act while it runs. Killed (SIGKILL) and
 /// reaped by the destructor if still running.
 class AoscanProcess {
