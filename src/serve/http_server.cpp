@@ -284,13 +284,18 @@ HttpServer::HttpServer(const HttpServerOptions& options, Handler handler,
   const std::string threads = std::to_string(options.threads);
   const std::string header_bytes = std::to_string(options.max_header_bytes);
   const std::string timeout = std::to_string(options.request_timeout_ms);
+  const std::string ws_timeout = std::to_string(options.websocket_timeout_ms);
   const char* civet_options[] = {"listening_ports", listen.c_str(),
                                  "num_threads", threads.c_str(),
                                  "max_request_size", header_bytes.c_str(),
                                  "request_timeout_ms", timeout.c_str(),
-                                 "websocket_timeout_ms", timeout.c_str(),
+                                 "websocket_timeout_ms", ws_timeout.c_str(),
                                  "enable_websocket_ping_pong", "yes",
                                  "enable_keep_alive", "yes",
+                                 // Connections beyond the workers wait in the kernel's queue
+                                 // (a flood of them is served in turn, each idle one for at
+                                 // most request_timeout_ms) rather than in SYN retries.
+                                 "listen_backlog", "1024",
                                  "decode_url", "yes",
                                  nullptr};
   mg_callbacks callbacks{};

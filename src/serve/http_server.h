@@ -67,10 +67,13 @@ struct WebSocketHandler {
 struct HttpServerOptions {
   std::string address = "127.0.0.1";  ///< IPv4 address to bind
   int port = 8080;                     ///< 0: any free port (see HttpServer::port())
-  int threads = 48;  ///< worker threads; each open WebSocket holds one
+  int threads = 64;  ///< worker threads; each open WebSocket holds one
   std::size_t max_header_bytes = 16 * 1024;  ///< request line and header fields, larger: refused
   std::size_t max_body_bytes = 64 * 1024;    ///< request bodies larger than this: 413
-  int request_timeout_ms = 10000;            ///< a client silent this long mid-request is dropped
+  /// A client silent this long while its request is due is dropped: a connection that sends
+  /// nothing holds a worker thread this long.
+  int request_timeout_ms = 3000;
+  int websocket_timeout_ms = 10000;  ///< a silent viewer is pinged after this long
 };
 
 /// A running civetweb server. Every request goes to `handler` on one of the worker threads

@@ -199,26 +199,34 @@ TEST_F(ServiceTest, TheLiveViewStreamsChangingFramesAndTheStatus) {
 
 TEST_F(ServiceTest, ManyConnectionsAndAViewerThatVanishesMidFrame) {
   start();
-  // 200 raw connections opened at once and dropped (one half sending half a request).
+  // 1000 raw connections opened at once and dropped: a third send half a request, a third
+  // binary garbage, a third nothing.
   std::vector<int> sockets;
-  for (int i = 0; i < 200; ++i) {
+  for (int i = 0; i < 1000; ++i) {
     const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
     sockaddr_in address{};
     address.sin_family = AF_INET;
     address.sin_port = htons(static_cast<std::uint16_t>(port_));
     address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0) {
-      if (i % 2 == 0) {
+      if (i % 3 == 0) {
         const char partial[] = "GET /api/sta";
         (void)!::write(fd, partial, sizeof(partial) - 1);
+      } else if (i % 3 == 1) {
+        const char garbage[] = "\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03\r\n\r\n\xff\xfe";
+        (void)!::write(fd, garbage, sizeof(garbage) - 1);
       }
       sockets.push_back(fd);
     } else {
       ::close(fd);
     }
   }
-  EXPECT_GT(sockets.size(), 100u);
+  EXPECT_GT(sockets.size(), 500u);
   for (int fd : sockets) ::close(fd);
+  // The service drains them and answers at once.
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(http(port_, "GET", "/api/status").status, 200);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(20));
   // A WebSocket viewer that goes away without a close frame while frames are sent.
   Reply r = http(port_, "POST", "/api/sessions",
                  R"({"source": "synth:corner?frames=3000", "realtime": true})");
