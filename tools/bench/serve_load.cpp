@@ -1,7 +1,8 @@
 // aoscan-serve-load: the service under viewers. Starts `aoscan serve` on a free loopback port,
 // starts a session replaying SOURCE at full speed (looped), connects N WebSocket viewers that
 // read every frame they are sent, and samples for T seconds the session's fused frames (fusion
-// fps over the window after a warm-up) and the service's resident memory. Prints one JSON object.
+// fps over the window after a warm-up, and the service's CPU time per fused frame) and the
+// service's resident memory. Prints one JSON object.
 //
 //   aoscan-serve-load --data DIR --source NAME --viewers 20 --seconds 60
 #include <arpa/inet.h>
@@ -16,6 +17,8 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <iterator>
+#include <sstream>
 #include <memory>
 #include <string>
 #include <thread>
@@ -70,6 +73,26 @@ double rss_mb(pid_t pid) {
   while (std::getline(in, line))
     if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
   return 0.0;
+}
+
+/// CPU seconds (user + system) the process has used so far.
+double cpu_seconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  const std::size_t close = text.rfind(')');
+  if (close == std::string::npos) return 0.0;
+  std::istringstream fields(text.substr(close + 2));
+  std::string field;
+  double utime = 0.0;
+  double stime = 0.0;
+  for (int i = 3; fields >> field; ++i) {  // field 3 is the state
+    if (i == 14) utime = std::stod(field);
+    if (i == 15) {
+      stime = std::stod(field);
+      break;
+    }
+  }
+  return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
 }
 
 struct Viewer {
@@ -169,6 +192,8 @@ int main(int argc, char** argv) {
   std::size_t window_last = 0;
   double window_t0 = 0.0;
   double window_t1 = 0.0;
+  double window_cpu0 = 0.0;
+  double window_cpu1 = 0.0;
   for (int tick = 1;; ++tick) {
     std::this_thread::sleep_until(start + std::chrono::seconds(tick));
     const double t = std::chrono::duration<double>(Clock::now() - start).count();
@@ -177,12 +202,15 @@ int main(int argc, char** argv) {
     if (!s.contains("live")) break;  // the session ended early
     const std::size_t fused = s["live"]["frames_processed"].get<std::size_t>();
     samples.push_back({{"t_s", t}, {"frames_processed", fused}, {"rss_mb", rss_mb(service)}});
+    const double cpu = cpu_seconds(service);
     if (t >= warmup_s && window_t0 == 0.0) {
       window_first = fused;
       window_t0 = t;
+      window_cpu0 = cpu;
     }
     window_last = fused;
     window_t1 = t;
+    window_cpu1 = cpu;
     if (t >= seconds) break;
   }
   std::vector<double> viewer_fps;
@@ -217,6 +245,11 @@ int main(int argc, char** argv) {
       {"seconds", watched},
       {"fusion_fps", window_t1 > window_t0 ? (window_last - window_first) / (window_t1 - window_t0) : 0.0},
       {"fps_window_s", {window_t0, window_t1}},
+      // The service's CPU time per fused frame over the window: on a busy machine the fps
+      // depends on the other load, this much less.
+      {"cpu_ms_per_frame", window_last > window_first
+                               ? 1000.0 * (window_cpu1 - window_cpu0) / (window_last - window_first)
+                               : 0.0},
       {"viewer_fps", viewer_fps.empty() ? nlohmann::json(nullptr)
                                         : nlohmann::json({{"min", viewer_fps.front()},
                                                           {"median", viewer_fps[viewer_fps.size() / 2]},
