@@ -299,6 +299,12 @@ TEST(ImageEval, TemporalStabilityWithAFinalGridReadsItAtEachPointAndSplitsOcclud
   EXPECT_EQ(r.all.std_mean[1], 0.0);
   ASSERT_EQ(r.occluded.cells, 1u);  // mean final 0.6 < 0.9; the other 0.95
   EXPECT_NEAR(r.occluded.std_mean[2], 0.1, 1e-6);
+  // MVAO shown 0.6 against final 0.5 and 0.95, then 0.7 and 0.95: all four differ.
+  ASSERT_EQ(s.final_differences().size(), 2u);
+  EXPECT_EQ(s.final_differences()[0].pixels, 2u);
+  EXPECT_NEAR(s.final_differences()[0].mean_abs, (0.1 + 0.35) / 2, 1e-6);
+  EXPECT_NEAR(s.final_differences()[1].mean_abs, (0.1 + 0.35) / 2, 1e-6);
+  EXPECT_EQ(s.final_differences()[1].share_differing, 1.0);
   // A pixel whose point has no observed cell in the final grid is left out altogether.
   TemporalStability t(1.0);
   t.add(k, Pose(), Image<float>(2, 1, 3.5f), ssao, mvao, &grid);

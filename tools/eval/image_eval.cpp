@@ -321,6 +321,7 @@ void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
     std::array<double, kShownCount> sum{};
   };
   std::unordered_map<std::uint64_t, FrameSums> frame;
+  FinalDifference difference;
   for (int y = 0; y < k.height; ++y)
     for (int x = 0; x < k.width; ++x) {
       const float z = depth_m(x, y), s = ssao(x, y), m = mvao(x, y);
@@ -331,6 +332,10 @@ void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
         const auto cell = final_grid->cell_of(p);
         final_ao = cell ? final_grid->cell_ao(*cell) : std::nullopt;
         if (!final_ao) continue;
+        const double d = std::abs(static_cast<double>(m) - *final_ao);
+        ++difference.pixels;
+        difference.mean_abs += d;
+        difference.share_differing += d > 2.0 / 255.0;
       }
       const std::optional<std::uint64_t> key = cell_key(p, cell_m_);
       if (!key) continue;
@@ -341,6 +346,13 @@ void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
       f.sum[2] += *final_ao;
     }
   with_final_ = with_final_ || final_grid != nullptr;
+  if (final_grid) {
+    if (difference.pixels > 0) {
+      difference.mean_abs /= static_cast<double>(difference.pixels);
+      difference.share_differing /= static_cast<double>(difference.pixels);
+    }
+    final_differences_.push_back(difference);
+  }
   for (const auto& [key, f] : frame) {
     Sums& c = cells_[key];
     ++c.n;

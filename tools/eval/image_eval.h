@@ -176,6 +176,17 @@ class TemporalStability {
   Result result(std::size_t min_frames) const;
   std::size_t frames() const { return frames_; }
 
+  /// Per frame added with a final grid: how far the MVAO shown is from the final grid's AO at the
+  /// same pixels. At the run's last frame the grid is the final one, so what remains there is the
+  /// difference between the view's cell (of the model raycast's point) and the cell of the depth's
+  /// point.
+  struct FinalDifference {
+    std::size_t pixels = 0;
+    double mean_abs = 0;        ///< mean |MVAO shown - final|
+    double share_differing = 0; ///< share of pixels with |MVAO shown - final| > 2 / 255
+  };
+  const std::vector<FinalDifference>& final_differences() const { return final_differences_; }
+
  private:
   struct Sums {
     std::size_t n = 0;
@@ -185,6 +196,7 @@ class TemporalStability {
   std::size_t frames_ = 0;
   bool with_final_ = false;  ///< a final grid was given
   std::unordered_map<std::uint64_t, Sums> cells_;
+  std::vector<FinalDifference> final_differences_;
 };
 
 /// A saved session's MVAO grid (io's neutral records: `OUT/session/mvao.grid`) as the ao module's

@@ -169,6 +169,10 @@ int run(int argc, char** argv) {
         };
         out["cells"] = spread_json(r.all);
         if (grid) out["occluded_cells"] = spread_json(r.occluded);
+        for (const TemporalStability::FinalDifference& d : s.final_differences())
+          out["mvao_minus_final_per_frame"].push_back({{"pixels", d.pixels},
+                                                       {"mean_abs", d.mean_abs},
+                                                       {"share_differing", d.share_differing}});
         if (json) {
           std::printf("%s\n", out.dump(2).c_str());
           return 0;
@@ -187,6 +191,12 @@ int run(int argc, char** argv) {
         };
         row("all", r.all);
         if (grid) row("occluded (final < 0.9)", r.occluded);
+        if (!s.final_differences().empty()) {
+          const TemporalStability::FinalDifference& d = s.final_differences().back();
+          std::printf("last frame          MVAO shown - final grid at its pixels: mean |d| %.4f, "
+                      "%.1f %% of %zu pixels differ by more than 2/255\n",
+                      d.mean_abs, 100 * d.share_differing, d.pixels);
+        }
         return 0;
       }
       const std::string gt = (std::filesystem::path(recording_dir) / "groundtruth.txt").string();
