@@ -32,6 +32,25 @@ class ScratchDir {
   std::filesystem::path path_;
 };
 
+/// A pinhole camera of width x height pixels, fx = fy = f.
+Intrinsics camera(int width, int height, double f, double cx, double cy) {
+  Intrinsics k;
+  k.width = width;
+  k.height = height;
+  k.fx = k.fy = f;
+  k.cx = cx;
+  k.cy = cy;
+  return k;
+}
+
+/// An empty MVAO grid of 0.5 m cells.
+MvaoGrid half_metre_grid() {
+  AoConfig config;
+  config.grid_resolution = 8;
+  config.grid_extent_m = 4.0;
+  return MvaoGrid(config);
+}
+
 TEST(ImageEval, GreyPixelsShowTheirAoAndAnyOtherColourShowsNone) {
   EXPECT_EQ(shown_ao(Rgb8{0, 0, 0}), 0.0f);
   EXPECT_EQ(shown_ao(Rgb8{255, 255, 255}), 1.0f);
@@ -142,11 +161,7 @@ TEST(ImageEval, RegionCorrelationIsPearsonOverEachRegionsPixels) {
 /// square on: the camera's z is the scene's +y.
 ImageEvalFrame plane_frame() {
   ImageEvalFrame f;
-  f.intrinsics.width = 16;
-  f.intrinsics.height = 12;
-  f.intrinsics.fx = f.intrinsics.fy = 10;
-  f.intrinsics.cx = 7.5;
-  f.intrinsics.cy = 5.5;
+  f.intrinsics = camera(16, 12, 10, 7.5, 5.5);
   Eigen::Matrix3d R;  // camera x -> scene x, camera y -> scene -z, camera z -> scene y
   R << 1, 0, 0, 0, 0, 1, 0, -1, 0;
   f.T_scene_camera = Pose(R, Eigen::Vector3d(0.3, -1.2, 1.0));
@@ -169,10 +184,7 @@ TEST(ImageEval, FrameReadsEachRaycastPixelAtItsBlocksFirstViewPixel) {
   f.mvao(6, 4) = kNaN;  // raycast pixel (3, 2): an unobserved cell
   // The final grid: 0.5 m cells; the wall is at camera z = 1.2 (cells z = 2), x within
   // +-0.84 m, y within +-0.6 m. Observe every cell there but x = -2 (x < -0.5 m).
-  AoConfig config;
-  config.grid_resolution = 8;
-  config.grid_extent_m = 4.0;
-  MvaoGrid grid(config);
+  MvaoGrid grid = half_metre_grid();
   for (int x = -1; x <= 1; ++x)
     for (int y = -2; y <= 1; ++y) ASSERT_TRUE(grid.restore_cell({x, y, 2}, {0.25f, 1.0f, 1}));
   ImageEvalOptions options;
@@ -228,12 +240,7 @@ TEST(ImageEval, SceneDepthIsTheOpticalAxisDistanceAndZeroWhereNothingIsHit) {
 }
 
 TEST(ImageEval, TemporalStabilityIsTheSpreadOverFramesOfEachCellsPerFrameMean) {
-  Intrinsics k;
-  k.width = 4;
-  k.height = 2;
-  k.fx = k.fy = 1;
-  k.cx = 1.5;
-  k.cy = 0.5;
+  const Intrinsics k = camera(4, 2, 1, 1.5, 0.5);
   // 10 m cells; the camera at (5, 5, 4): every point at depth 1 lies in cell (0, 0, 0).
   TemporalStability s(10.0);
   const Pose pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(5, 5, 4));
@@ -269,19 +276,11 @@ TEST(ImageEval, TemporalStabilityIsTheSpreadOverFramesOfEachCellsPerFrameMean) {
 }
 
 TEST(ImageEval, TemporalStabilityWithAFinalGridReadsItAtEachPointAndSplitsOccludedCells) {
-  Intrinsics k;
-  k.width = 2;
-  k.height = 1;
-  k.fx = k.fy = 1;
-  k.cx = 0.25;
-  k.cy = 0;
+  const Intrinsics k = camera(2, 1, 1, 0.25, 0);
   // 1 m cells for the spread, 0.5 m cells in the grid. Camera at the origin: depth 2 puts
   // pixel 0 at (-0.5, 0, 2) and pixel 1 at (1.5, 0, 2); depth 2.6 at x = -0.65 and 1.95. Each
   // pixel stays in one spread cell but moves to another grid cell.
-  AoConfig config;
-  config.grid_resolution = 8;
-  config.grid_extent_m = 4.0;
-  MvaoGrid grid(config);
+  MvaoGrid grid = half_metre_grid();
   ASSERT_TRUE(grid.restore_cell({-1, 0, 4}, {0.5f, 1.0f, 1}));  // x in [-0.5, 0), z in [2, 2.5)
   ASSERT_TRUE(grid.restore_cell({-2, 0, 5}, {0.7f, 1.0f, 1}));  // x in [-1, -0.5), z in [2.5, 3)
   ASSERT_TRUE(grid.restore_cell({3, 0, 4}, {0.95f, 1.0f, 1}));
