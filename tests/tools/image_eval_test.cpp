@@ -227,6 +227,24 @@ TEST(ImageEval, CellConstantCeilingIsTheCorrelationRatioOfTheReferenceByCell) {
   EXPECT_EQ(r[2], 0.0);
 }
 
+TEST(ImageEval, ASavedGridReadsBackCellForCell) {
+  SavedGrid saved;
+  saved.cell_size_m = 0.0078125;
+  saved.integration = 1;  // mean
+  saved.frames = 7;
+  saved.cells = {{-3, 0, 5, 1.5f, 2.0f, 4}, {1, 2, 3, 0.2f, 1.0f, 7}};
+  const MvaoGrid grid = grid_from_saved(saved);
+  EXPECT_EQ(grid.cell_size_m(), 0.0078125);
+  EXPECT_EQ(grid.integration(), AoIntegration::kMean);
+  EXPECT_EQ(grid.frames_integrated(), 7u);
+  EXPECT_EQ(grid.cell_count(), 2u);
+  EXPECT_EQ(*grid.cell_ao({-3, 0, 5}), 0.75f);
+  EXPECT_EQ(grid.find({1, 2, 3})->last_frame, 7u);
+  EXPECT_EQ(*grid.cell_of(Eigen::Vector3d(-0.02, 0.001, 0.04)), (CellIndex{-3, 0, 5}));
+  saved.integration = 3;
+  EXPECT_THROW(grid_from_saved(saved), Error);
+}
+
 TEST(ImageEval, SceneDepthIsTheOpticalAxisDistanceAndZeroWhereNothingIsHit) {
   const AnalyticScene scene = AnalyticScene::make("plane");
   ImageEvalFrame f = plane_frame();

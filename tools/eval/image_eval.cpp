@@ -396,6 +396,9 @@ TemporalStability::Result TemporalStability::result(std::size_t min_frames) cons
 }
 
 MvaoGrid grid_from_saved(const SavedGrid& saved) {
+  if (saved.integration > static_cast<std::uint32_t>(AoIntegration::kLast))
+    throw input_error("the saved grid has an unknown merge mode " +
+                      std::to_string(saved.integration));
   AoConfig config;
   config.grid_resolution = 1;
   config.grid_extent_m = saved.cell_size_m;
