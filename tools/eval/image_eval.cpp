@@ -151,21 +151,13 @@ Image<std::uint8_t> discontinuity_mask(const Image<float>& depth_m, int radius_p
 }
 
 const char* region_name(Region region) {
-  switch (region) {
-    case Region::kAll: return "all";
-    case Region::kBorder: return "border";
-    case Region::kDiscontinuity: return "discontinuity";
-  }
-  return "?";
+  static constexpr const char* kNames[kRegionCount] = {"all", "border", "discontinuity"};
+  return kNames[static_cast<int>(region)];
 }
 
 const char* shown_name(Shown shown) {
-  switch (shown) {
-    case Shown::kSsao: return "ssao";
-    case Shown::kMvao: return "mvao";
-    case Shown::kFinal: return "final";
-  }
-  return "?";
+  static constexpr const char* kNames[kShownCount] = {"ssao", "mvao", "final"};
+  return kNames[static_cast<int>(shown)];
 }
 
 void RegionCorrelation::add(const std::array<double, kShownCount>& shown, double reference,
