@@ -87,6 +87,14 @@ struct AoConfig {
   /// pipeline/ao_load_shedder.h. 3: RedKitchen paced at 30 Hz on 2 cores (`--realtime`) drops
   /// fewer frames in front of tracking than with 1 (two alternating pairs); see BENCHMARKS.md.
   int live_max_interval = 3;
+  /// Repeated views of a still camera (Sabbadin et al. 2016 Sec. 8; ao/still_view.h): the k-th
+  /// frame within still_view_distance_m and still_view_angle_deg of the last view that moved away
+  /// gets its MVAO weights times still_view_decay^k, so standing still adds at most
+  /// decay / (1 - decay) views' weight. 1 = off (every view counts fully); 0 keeps only the first
+  /// view of each still period.
+  double still_view_decay = 1.0;
+  double still_view_distance_m = 0.01;
+  double still_view_angle_deg = 1.0;
 
   template <class V>
   void visit(V& v) {
@@ -135,6 +143,17 @@ struct AoConfig {
              0.01, 1.0);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);
+    v.number("still_view_decay", still_view_decay,
+             "repeated views of a still camera: the k-th frame within still_view_distance_m and "
+             "still_view_angle_deg of the last view that moved weighs decay^k in the MVAO grid; "
+             "1 = off",
+             0.0, 1.0);
+    v.number("still_view_distance_m", still_view_distance_m,
+             "still camera: a frame this close to the last view that moved repeats it (m)", 0.0,
+             10.0);
+    v.number("still_view_angle_deg", still_view_angle_deg,
+             "still camera: ... and its optical axis within this angle of that view's (degrees)",
+             0.0, 180.0);
     v.integer("live_max_interval", live_max_interval,
               "live: while frames are dropped in front of tracking, SSAO runs on every 3rd, "
               "5th, ... tracked frame up to this (1 = every frame)",

@@ -115,11 +115,13 @@ const MvaoCell* MvaoGrid::find_code(std::uint64_t code) const {
 
 Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
                            const PointMaps& maps, const Pose& T_world_camera,
-                           Image<std::uint32_t>* slots) {
+                           Image<std::uint32_t>* slots, float frame_weight) {
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
   if (ao.width() != w || ao.height() != h || weights.width() != w || weights.height() != h)
     return Status::internal("MvaoGrid::integrate: AO, weight and vertex images differ in size");
+  if (!(frame_weight > 0.0f) || !std::isfinite(frame_weight))
+    return Status::internal("MvaoGrid::integrate: the frame weight must be positive and finite");
   ++frames_;
   const std::uint32_t stamp = static_cast<std::uint32_t>(frames_);
   const Eigen::Matrix3d R = T_world_camera.rotation();
@@ -179,7 +181,7 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
       }
       batch_pixel[count] = i;
       batch_ao[count] = std::min(std::max(ai, 0.0f), 1.0f);
-      batch_w[count] = mode_ == AoIntegration::kMvao ? wi : 1.0f;
+      batch_w[count] = (mode_ == AoIntegration::kMvao ? wi : 1.0f) * frame_weight;
       ++count;
     }
     begin = i;

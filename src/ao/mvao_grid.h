@@ -65,8 +65,12 @@ class MvaoGrid {
   /// clear(), as cells never move. slot_ao() reads them: the view image of the frame just
   /// integrated, without a second lookup. Beyond kMaxBricks bricks (48 GiB) no new cell is made:
   /// such points are counted in points_out_of_range().
+  /// `frame_weight` multiplies every pixel's weight of this frame, in any mode (a still camera's
+  /// repeated view, StillViewWeight); it must be positive and finite, else internal() and nothing
+  /// changes (a frame that should not count at all is not integrated).
   Status integrate(const Image<float>& ao, const Image<float>& weights, const PointMaps& maps,
-                   const Pose& T_world_camera, Image<std::uint32_t>* slots = nullptr);
+                   const Pose& T_world_camera, Image<std::uint32_t>* slots = nullptr,
+                   float frame_weight = 1.0f);
   static constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
   /// Bricks the grid makes at most: slots stay below kNoSlot.
   static constexpr std::uint32_t kMaxBricks = std::uint32_t{1} << 26;

@@ -91,7 +91,8 @@ Processing::Processing(const Config& config, std::string out_dir, MeshWriteOptio
       mesh_options_(mesh_options),
       reconstruction_(config),
       ao_shedder_(config.ao.live_max_interval),
-      grid_(config.ao) {}
+      grid_(config.ao),
+      still_view_(config.ao) {}
 
 std::vector<StageDef> Processing::stages() {
   return {
@@ -207,7 +208,10 @@ Status Processing::ssao(FrameWork& frame) {
 }
 
 Status Processing::mvao(FrameWork& frame) {
-  if (frame.model_reset) grid_.clear();  // the old grid lies in the old model's world frame
+  if (frame.model_reset) {  // the old grid lies in the old model's world frame
+    grid_.clear();
+    still_view_.reset();
+  }
   // Only the track stage's candidates (which have their colour image), and with a demand only
   // while the consumer is still caught up: it stays so from the candidate's track stage until a
   // product is built, so the first candidate after a catch-up is built and later ones are not.
@@ -218,12 +222,15 @@ Status Processing::mvao(FrameWork& frame) {
   // The view image reads the cells of the pixels just integrated through their slots when the
   // grid was fed the raycast (ao.input=raycast), the image's own maps.
   bool have_slots = false;
-  if (!frame.ssao.empty()) {
+  // A still camera's repeated view weighs less (1 unless ao.still_view_decay < 1; 0: not at all).
+  const float view_weight =
+      frame.ssao.empty() ? 0.0f : still_view_.next(frame.fusion.T_world_camera);
+  if (view_weight > 0.0f) {
     const bool raw = config_.ao.input == AoInput::kRaw;
     const PointMaps& maps = raw ? frame.raw_maps : frame.raycast->maps;
     have_slots = frame.view_products && !raw;
     status = grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera,
-                             have_slots ? &view_slots_ : nullptr);
+                             have_slots ? &view_slots_ : nullptr, view_weight);
   }
   if (frame.view_products && frame.raycast)
     mvao_image(grid_, frame.raycast->maps, frame.fusion.T_world_camera, frame.mvao,

@@ -16,6 +16,7 @@
 
 #include "ao/mvao_grid.h"
 #include "ao/ssao.h"
+#include "ao/still_view.h"
 #include "core/depth_frame.h"
 #include "core/image.h"
 #include "core/mesh.h"
@@ -227,6 +228,7 @@ class Processing {
   AoLoadShedder ao_shedder_;         ///< used by the ssao stage only
   SsaoWorkspace ssao_workspace_;     ///< used by the ssao stage only
   MvaoGrid grid_;                    ///< written by the mvao stage only
+  StillViewWeight still_view_;       ///< used by the mvao stage only
   Image<std::uint32_t> view_slots_;  ///< the grid slots of the frame's pixels, for mvao_image()
   std::vector<StampedPose> trajectory_;
   std::size_t frames_tracking_lost_ = 0;

@@ -80,6 +80,27 @@ TEST(MvaoGrid, ModesGiveTheExactWeightedMeans) {
   EXPECT_FLOAT_EQ(*last.cell_ao({1, 0, 0}), 0.5f);  // untouched by frame 2: keeps frame 1
 }
 
+TEST(MvaoGrid, AFrameWeightScalesEveryPixelsWeightInEveryMode) {
+  const Frame f1({kA, kB}, {0.25f, 0.75f}, {1.0f, 3.0f});
+  const Frame f2({kA}, {1.0f}, {2.0f});
+  const Pose I = Pose::identity();
+  MvaoGrid mvao(grid_config(AoIntegration::kMvao));
+  ASSERT_TRUE(mvao.integrate(f1.ao, f1.w, f1.maps, I).is_ok());
+  ASSERT_TRUE(mvao.integrate(f2.ao, f2.w, f2.maps, I, nullptr, 0.25f).is_ok());
+  EXPECT_EQ(mvao.find({0, 0, 0})->weight_sum, 4.5f);  // 1 + 3 + 0.25 * 2
+  EXPECT_FLOAT_EQ(*mvao.cell_ao({0, 0, 0}), (0.25f + 3.0f * 0.75f + 0.5f) / 4.5f);
+  MvaoGrid mean(grid_config(AoIntegration::kMean));
+  mean.integrate(f1.ao, f1.w, f1.maps, I);
+  mean.integrate(f2.ao, f2.w, f2.maps, I, nullptr, 0.5f);
+  EXPECT_FLOAT_EQ(*mean.cell_ao({0, 0, 0}), (0.25f + 0.75f + 0.5f) / 2.5f);
+  // Not positive or not finite: refused, nothing changes.
+  for (const float bad : {0.0f, -1.0f, std::numeric_limits<float>::quiet_NaN(),
+                          std::numeric_limits<float>::infinity()})
+    EXPECT_FALSE(mvao.integrate(f2.ao, f2.w, f2.maps, I, nullptr, bad).is_ok());
+  EXPECT_EQ(mvao.find({0, 0, 0})->weight_sum, 4.5f);
+  EXPECT_EQ(mvao.frames_integrated(), 2u);
+}
+
 TEST(MvaoGrid, PoseMapsCameraPointsToWorldCells) {
   // Camera rotated 90 degrees about z and shifted: camera (0.1, 0.1, 0.1) -> world (-0.1+2, ...).
   Eigen::Matrix3d R;

@@ -33,6 +33,11 @@ Eigen::Vector3d ray_origin(const AnalyticScene& scene, const SurfacePoint& s) {
 
 }  // namespace
 
+double scene_obscurance(const AnalyticScene& scene, const RayCaster& cast, const SurfacePoint& s,
+                        double t_max_m, int strata) {
+  return reference_obscurance(cast, ray_origin(scene, s), s.normal, t_max_m, strata, 0.0);
+}
+
 RayCaster scene_ray_caster(const AnalyticScene& scene) {
   return [&scene](const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                   double t_max) -> std::optional<double> {
@@ -59,8 +64,7 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
       continue;
     }
     mesh_ao.push_back(mesh.quality[i]);
-    reference.push_back(
-        reference_obscurance(cast, ray_origin(scene, *s), s->normal, t_max_m, strata, 0.0));
+    reference.push_back(scene_obscurance(scene, cast, *s, t_max_m, strata));
     r.pairs.push_back({s->p, mesh_ao.back(), reference.back()});
   }
   r.vertices = mesh_ao.size();

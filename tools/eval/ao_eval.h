@@ -44,6 +44,13 @@ AoEvalResult evaluate_mesh_ao(const TriangleMesh& mesh, const AnalyticScene& sce
 /// The reference's ray caster over `scene` (which must outlive it): the first hit from t = 0.
 RayCaster scene_ray_caster(const AnalyticScene& scene);
 
+/// Eq. 1 obscurance (reference_obscurance()) at surface point `s` of `scene`, `cast` being
+/// scene_ray_caster(scene): its rays start just above the point along its normal, and as far off
+/// any other face passing that close (a point on the line where a wall meets a cabinet's side lies
+/// in the wall's plane too).
+double scene_obscurance(const AnalyticScene& scene, const RayCaster& cast, const SurfacePoint& s,
+                        double t_max_m, int strata);
+
 /// Writes `result.pairs` as CSV with the header `x,y,z,mesh_ao,reference`; a file that cannot be
 /// written is a usage_error naming it.
 void write_ao_pairs_csv(const std::string& path, const AoEvalResult& result);

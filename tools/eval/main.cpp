@@ -1,7 +1,12 @@
 /// @file main.cpp
-/// @brief aoscan-eval: trajectory error (ATE/RPE) and mesh accuracy/completeness against ground truth.
+/// @brief aoscan-eval: trajectory error (ATE/RPE), mesh accuracy/completeness, mesh colour and AO
+/// against ground truth; the AO shown in a replay's snapshot views (image space, temporal
+/// stability).
 #include <cstdio>
+#include <filesystem>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -9,7 +14,9 @@
 #include "core/status.h"
 #include "ao_eval.h"
 #include "colour_eval.h"
+#include "image_eval.h"
 #include "io/ply.h"
+#include "io/session_files.h"
 #include "io/tum.h"
 #include "mesh_eval.h"
 #include "trajectory_eval.h"
@@ -81,8 +88,169 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember({"first", "ate"}))
         ->capture_default_str();
 
+  std::string snapshot_dir, recording_dir, grid_path;
+  ImageEvalOptions image_options;
+  CLI::App* image = app.add_subcommand(
+      "image",
+      "per pixel of a replay's snapshot views of a synthetic scene: Pearson r of the frame's "
+      "SSAO, the MVAO shown at that frame and the final grid's AO against ray-traced obscurance "
+      "at the surface point, over all pixels, near the image border and near depth "
+      "discontinuities");
+  image->add_option("SNAPSHOTS", snapshot_dir, "--snapshot folder (ssao_*.png, mvao_*.png)")
+      ->required()->check(CLI::ExistingDirectory);
+  image->add_option("--recording", recording_dir,
+                    "the replayed recording (camera.json, depth.txt, groundtruth.txt)")
+      ->required()->check(CLI::ExistingDirectory);
+  image->add_option("--estimate", est_path, "the replay's trajectory.txt")->required()->check(CLI::ExistingFile);
+  image->add_option("--grid", grid_path, "the replay's final MVAO grid (OUT/session/mvao.grid)")
+      ->required()->check(CLI::ExistingFile);
+  image->add_option("--scene", scene_name, "synthetic scene name (corner, room, plane)")->required();
+  image->add_option("--t-max", image_options.t_max_m, "obscurance falloff distance t_max (m)")
+      ->capture_default_str();
+  image->add_option("--step", image_options.step, "evaluate every N-th raycast pixel along x and y")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  image->add_option("--raycast-level", image_options.raycast_level,
+                    "the replay's fusion.raycast_level (the views enlarge the raycast by 2^level)")
+      ->check(CLI::Range(0, 2))->capture_default_str();
+  image->add_option("--border", image_options.border_px, "border region width (px)")->capture_default_str();
+  image->add_option("--discontinuity", image_options.discontinuity_px,
+                    "discontinuity region: pixels within this distance of a depth jump (px)")
+      ->capture_default_str();
+
+  double cell_m = 0.01;
+  std::size_t min_frames = 10;
+  CLI::App* stability = app.add_subcommand(
+      "stability",
+      "temporal stability of the AO shown in a replay's snapshot views: per world cell seen in at "
+      "least --min-frames snapshot frames, the standard deviation over those frames of its SSAO "
+      "and of its MVAO (surface points from the recording's depth and the estimated poses)");
+  stability->add_option("SNAPSHOTS", snapshot_dir, "--snapshot folder (ssao_*.png, mvao_*.png)")
+      ->required()->check(CLI::ExistingDirectory);
+  stability->add_option("--recording", recording_dir, "the replayed recording (camera.json, depth.txt)")
+      ->required()->check(CLI::ExistingDirectory);
+  stability->add_option("--estimate", est_path, "the replay's trajectory.txt")->required()->check(CLI::ExistingFile);
+  stability->add_option("--cell", cell_m, "world cell size (m)")->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  stability->add_option("--min-frames", min_frames, "cells seen in fewer frames are left out")
+      ->capture_default_str();
+  stability->add_option("--grid", grid_path,
+                        "the replay's final MVAO grid (OUT/session/mvao.grid): also the spread of "
+                        "its AO at the same pixels, and the occluded cells alone")
+      ->check(CLI::ExistingFile);
+
   CLI11_PARSE(app, argc, argv);
   try {
+    if (*image || *stability) {
+      const std::vector<std::uint64_t> frames = snapshot_frames(snapshot_dir);
+      if (frames.empty()) throw input_error(snapshot_dir + ": no frame with ssao and mvao views");
+      const Image<float> first = read_shown_ao(snapshot_dir, "ssao", frames.front());
+      const RecordingFrames recording = read_recording(recording_dir, first.width(), first.height());
+      const std::vector<StampedPose> estimate = read_trajectory(est_path);
+      if (*stability) {
+        std::optional<MvaoGrid> grid;
+        if (!grid_path.empty()) grid.emplace(grid_from_saved(read_grid(grid_path)));
+        const TemporalStability s = stability_of_snapshots(snapshot_dir, recording, estimate, cell_m,
+                                                           grid ? &*grid : nullptr);
+        const TemporalStability::Result r = s.result(min_frames);
+        nlohmann::json out;
+        out["frames"] = s.frames();
+        out["cell_m"] = cell_m;
+        out["min_frames"] = min_frames;
+        const auto spread_json = [&](const TemporalStability::Spread& sp) {
+          nlohmann::json o;
+          o["cells"] = sp.cells;
+          o["frames_per_cell_mean"] = sp.frames_per_cell_mean;
+          for (int k = 0; k < (grid ? kShownCount : 2); ++k) {
+            const std::string name = shown_name(static_cast<Shown>(k));
+            o[name + "_std_mean"] = sp.std_mean[k];
+            o[name + "_std_median"] = sp.std_median[k];
+          }
+          return o;
+        };
+        out["cells"] = spread_json(r.all);
+        if (grid) out["occluded_cells"] = spread_json(r.occluded);
+        for (const TemporalStability::FinalDifference& d : s.final_differences())
+          out["mvao_minus_final_per_frame"].push_back({{"pixels", d.pixels},
+                                                       {"mean_abs", d.mean_abs},
+                                                       {"share_differing", d.share_differing}});
+        if (json) {
+          std::printf("%s\n", out.dump(2).c_str());
+          return 0;
+        }
+        std::printf("frames              %zu with a pose; cells of %.1f cm seen in >= %zu of them\n",
+                    s.frames(), cell_m * 100, min_frames);
+        std::printf("%-22s %8s %7s %17s %17s %17s\n", "cells", "count", "frames",
+                    "SSAO std mean/med", "MVAO std mean/med", "final std mean/med");
+        const auto row = [&](const char* name, const TemporalStability::Spread& sp) {
+          std::printf("%-22s %8zu %7.1f %8.4f/%8.4f %8.4f/%8.4f", name, sp.cells,
+                      sp.frames_per_cell_mean, sp.std_mean[0], sp.std_median[0], sp.std_mean[1],
+                      sp.std_median[1]);
+          if (grid) std::printf(" %8.4f/%8.4f", sp.std_mean[2], sp.std_median[2]);
+          std::printf("  (MVAO / SSAO %.3f)\n",
+                      sp.std_mean[0] > 0 ? sp.std_mean[1] / sp.std_mean[0] : 0.0);
+        };
+        row("all", r.all);
+        if (grid) row("occluded (final < 0.9)", r.occluded);
+        if (!s.final_differences().empty()) {
+          const TemporalStability::FinalDifference& d = s.final_differences().back();
+          std::printf("last frame          MVAO shown - final grid at its pixels: mean |d| %.4f, "
+                      "%.1f %% of %zu pixels differ by more than 2/255\n",
+                      d.mean_abs, 100 * d.share_differing, d.pixels);
+        }
+        return 0;
+      }
+      const std::string gt = (std::filesystem::path(recording_dir) / "groundtruth.txt").string();
+      const AssociatedPoses poses = associate_poses(read_trajectory(gt), estimate, max_dt);
+      if (poses.estimate.empty()) throw input_error(est_path + ": no pose matches a timestamp of " + gt);
+      const ImageEvalReport report = evaluate_snapshots(
+          snapshot_dir, recording, estimate, first_pose_alignment(poses),
+          AnalyticScene::make(scene_name), grid_from_saved(read_grid(grid_path)), image_options);
+      nlohmann::json out;
+      out["frames"] = report.frames;
+      out["frames_untracked"] = report.frames_untracked;
+      out["pixels"] = {{"sampled", report.counts.sampled},   {"no_scene", report.counts.no_scene},
+                       {"no_ssao", report.counts.no_ssao},   {"no_mvao", report.counts.no_mvao},
+                       {"no_final", report.counts.no_final}, {"compared", report.counts.compared}};
+      for (int g = 0; g < kRegionCount; ++g) {
+        const auto region = static_cast<Region>(g);
+        nlohmann::json& o = out["regions"][region_name(region)];
+        o["pixels"] = report.pooled.count(region);
+        o["mean_reference"] = report.pooled.mean_reference(region);
+        for (int k = 0; k < kShownCount; ++k) {
+          const auto shown = static_cast<Shown>(k);
+          o[std::string("r_") + shown_name(shown)] = report.pooled.r(region, shown);
+          o[std::string("mean_") + shown_name(shown)] = report.pooled.mean(region, shown);
+        }
+      }
+      for (int g = 0; g < kRegionCount; ++g)
+        out["regions"][region_name(static_cast<Region>(g))]["r_cell_ceiling"] =
+            report.cell_ceiling_r[g];
+      for (const ImageEvalReport::Frame& f : report.per_frame)
+        out["per_frame"].push_back(
+            {{"frame", f.sequence}, {"pixels", f.pixels}, {"r_ssao", f.r_ssao}, {"r_mvao", f.r_mvao}});
+      if (json) {
+        std::printf("%s\n", out.dump(2).c_str());
+        return 0;
+      }
+      std::printf("frames              %zu evaluated (%zu without a pose skipped)\n", report.frames,
+                  report.frames_untracked);
+      std::printf("pixels              %zu compared of %zu (no scene %zu, no SSAO %zu, unobserved "
+                  "MVAO %zu, final grid unobserved %zu)\n",
+                  report.counts.compared, report.counts.sampled, report.counts.no_scene,
+                  report.counts.no_ssao, report.counts.no_mvao, report.counts.no_final);
+      std::printf("Pearson r against the reference; ceiling: the best AO constant over each cell "
+                  "of the final grid\n");
+      std::printf("%-14s %9s %7s %7s %7s %8s\n", "region", "pixels", "SSAO", "MVAO", "final",
+                  "ceiling");
+      for (int g = 0; g < kRegionCount; ++g) {
+        const auto region = static_cast<Region>(g);
+        std::printf("%-14s %9zu %7.3f %7.3f %7.3f %8.3f\n", region_name(region),
+                    report.pooled.count(region), report.pooled.r(region, Shown::kSsao),
+                    report.pooled.r(region, Shown::kMvao), report.pooled.r(region, Shown::kFinal),
+                    report.cell_ceiling_r[g]);
+      }
+      return 0;
+    }
     const AssociatedPoses poses = associate_poses(read_trajectory(gt_path), read_trajectory(est_path), max_dt);
     if (poses.estimate.empty()) throw input_error(est_path + ": no pose matches a timestamp of " + gt_path);
     const AteResult ate = compute_ate(poses);
