@@ -25,6 +25,27 @@ std::vector<std::string> segments(const std::string& path) {
   return out;
 }
 
+/// The content type of a session's file by its extension.
+std::string content_type_of(const std::string& name) {
+  static const std::pair<const char*, const char*> kTypes[] = {
+      {".json", "application/json"}, {".txt", "text/plain"}, {".png", "image/png"},
+      {".glb", "model/gltf-binary"}, {".ply", "application/octet-stream"}};
+  const std::size_t dot = name.rfind('.');
+  const std::string extension = dot == std::string::npos ? "" : name.substr(dot);
+  for (const auto& [ext, type] : kTypes)
+    if (extension == ext) return type;
+  return "application/octet-stream";
+}
+
+/// 303 See Other to `location`.
+HttpResponse redirect(const std::string& location) {
+  HttpResponse response;
+  response.status = 303;
+  response.content_type = "text/plain";
+  response.headers.emplace_back("Location", location);
+  return response;
+}
+
 HttpResponse method_not_allowed(const HttpRequest& request, const char* allowed) {
   HttpResponse response = error_response(405, request.method + " " + request.path +
                                                   ": not allowed here (" + allowed + ")");
@@ -152,20 +173,13 @@ bool Api::take_control(const HttpRequest& request, HttpResponse& refusal) {
 HttpResponse Api::login(const HttpRequest& request) {
   const std::optional<std::string> token = form_value(request.body, "token");
   if (!options_.token || (token && token_matches(*token, *options_.token))) {
-    HttpResponse response;
-    response.status = 303;
-    response.content_type = "text/plain";
-    response.headers.emplace_back("Location", "/");
+    HttpResponse response = redirect("/");
     if (options_.token)
       response.headers.emplace_back("Set-Cookie", std::string(kTokenCookie) + "=" + *options_.token +
                                                       "; Path=/; HttpOnly; SameSite=Strict");
     return response;
   }
-  HttpResponse response;
-  response.status = 303;
-  response.content_type = "text/plain";
-  response.headers.emplace_back("Location", "/login?failed=1");
-  return response;
+  return redirect("/login?failed=1");
 }
 
 HttpResponse Api::handle(const HttpRequest& request) {
@@ -192,11 +206,7 @@ HttpResponse Api::route(const HttpRequest& request) {
       response.headers.emplace_back("WWW-Authenticate", "Bearer");
       return response;
     }
-    HttpResponse response;
-    response.status = 303;
-    response.content_type = "text/plain";
-    response.headers.emplace_back("Location", "/login");
-    return response;
+    return redirect("/login");  // a browser: the login page
   }
 
   if (path.rfind("/api/", 0) != 0) {  // the web page
@@ -262,13 +272,9 @@ HttpResponse Api::session_route(const HttpRequest& request, const std::string& r
     if (!get) return method_not_allowed(request, "GET");
     HttpResponse response;
     response.file_path = sessions_.file(id, parts[2]).string();
-    response.content_type = "application/octet-stream";
-    const std::string& name = parts[2];
-    if (name.size() > 5 && name.substr(name.size() - 5) == ".json") response.content_type = "application/json";
-    if (name.size() > 4 && name.substr(name.size() - 4) == ".txt") response.content_type = "text/plain";
-    if (name.size() > 4 && name.substr(name.size() - 4) == ".png") response.content_type = "image/png";
-    if (name.size() > 4 && name.substr(name.size() - 4) == ".glb") response.content_type = "model/gltf-binary";
-    response.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + name + "\"");
+    response.content_type = content_type_of(parts[2]);
+    response.headers.emplace_back("Content-Disposition",
+                                  "attachment; filename=\"" + parts[2] + "\"");
     return response;
   }
   return error_response(404, "no endpoint /api/sessions/" + rest);

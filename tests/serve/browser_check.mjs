@@ -60,7 +60,7 @@ try {
   page.on('pageerror', (error) => errors.push(error.message));
   await page.goto(url);
 
-  const start = await fetch(`${url}api/sessions`, { method: 'POST', headers, body: JSON.stringify({ source: recording, realtime: true }) });
+  const start = await fetch(`${url}api/sessions`, { method: 'POST', headers, body: JSON.stringify({ source: recording, realtime: true, loop: 20 }) });
   if (start.status !== 201) fail(`POST /api/sessions: ${start.status} ${await start.text()}`);
   const { id } = await start.json();
 

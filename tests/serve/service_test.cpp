@@ -23,6 +23,7 @@
 #include "serve/live_stream.h"
 #include "serve/sessions.h"
 #include "support/cli_util.h"
+#include "support/http_client.h"
 #include "support/scratch_dir.h"
 
 namespace aoscan {
@@ -30,32 +31,18 @@ namespace {
 
 using testing::ScratchDir;
 
-struct Reply {
-  int status = 0;
-  std::string body;
-};
+using Reply = testing::HttpReply;
 
-/// One request over a new connection (civetweb's client).
 Reply http(int port, const std::string& method, const std::string& path,
            const std::string& body = "", const std::string& extra_headers = "") {
-  char error[256] = "";
-  mg_connection* conn = mg_connect_client("127.0.0.1", port, 0, error, sizeof(error));
-  if (!conn) return {-1, error};
-  mg_printf(conn, "%s %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n%sContent-Length: %zu\r\n\r\n",
-            method.c_str(), path.c_str(), extra_headers.c_str(), body.size());
-  if (!body.empty()) mg_write(conn, body.data(), body.size());
-  Reply reply;
-  if (mg_get_response(conn, error, sizeof(error), 30000) >= 0) {
-    reply.status = mg_get_response_info(conn)->status_code;
-    char buffer[8192];
-    int n;
-    while ((n = mg_read(conn, buffer, sizeof(buffer))) > 0) reply.body.append(buffer, n);
-  } else {
-    reply.status = -1;
-    reply.body = error;
-  }
-  mg_close_connection(conn);
-  return reply;
+  return testing::http_request(port, method, path, body, extra_headers);
+}
+
+/// POSTs a session request and returns the new session's id ("" and a failure when refused).
+std::string start_session(int port, const std::string& body) {
+  const Reply r = http(port, "POST", "/api/sessions", body);
+  EXPECT_EQ(r.status, 201) << r.body;
+  return r.status == 201 ? nlohmann::json::parse(r.body)["id"].get<std::string>() : "";
 }
 
 /// What a WebSocket client received.
@@ -130,10 +117,8 @@ TEST_F(ServiceTest, AnswersOverLoopbackAndLimitsBodies) {
 
 TEST_F(ServiceTest, TheLiveViewStreamsChangingFramesAndTheStatus) {
   start();
-  Reply r = http(port_, "POST", "/api/sessions",
-                 R"({"source": "synth:corner?frames=3000", "realtime": true})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const std::string id = start_session(port_, R"({"source": "synth:corner?frames=3000", "realtime": true})");
+  ASSERT_FALSE(id.empty());
 
   Received received;
   char error[256] = "";
@@ -184,7 +169,7 @@ TEST_F(ServiceTest, TheLiveViewStreamsChangingFramesAndTheStatus) {
   mg_websocket_client_write(ws, MG_WEBSOCKET_OPCODE_TEXT, depth.data(), depth.size());
   mg_close_connection(ws);
 
-  r = http(port_, "POST", "/api/sessions/" + id + "/stop");
+  Reply r = http(port_, "POST", "/api/sessions/" + id + "/stop");
   EXPECT_EQ(r.status, 200) << r.body;
   for (int i = 0; i < 3000; ++i) {
     r = http(port_, "GET", "/api/status");
@@ -228,10 +213,8 @@ TEST_F(ServiceTest, ManyConnectionsAndAViewerThatVanishesMidFrame) {
   EXPECT_EQ(http(port_, "GET", "/api/status").status, 200);
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(20));
   // A WebSocket viewer that goes away without a close frame while frames are sent.
-  Reply r = http(port_, "POST", "/api/sessions",
-                 R"({"source": "synth:corner?frames=3000", "realtime": true})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const std::string id = start_session(port_, R"({"source": "synth:corner?frames=3000", "realtime": true})");
+  ASSERT_FALSE(id.empty());
   for (int k = 0; k < 3; ++k) {
     Received received;
     char error[256] = "";
@@ -243,7 +226,7 @@ TEST_F(ServiceTest, ManyConnectionsAndAViewerThatVanishesMidFrame) {
     mg_close_connection(ws);
   }
   // The service goes on answering and fusing.
-  r = http(port_, "GET", "/api/sessions/" + id);
+  Reply r = http(port_, "GET", "/api/sessions/" + id);
   ASSERT_EQ(r.status, 200);
   const std::size_t before = nlohmann::json::parse(r.body)["live"]["frames_processed"];
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -362,13 +345,11 @@ TEST(ServiceCommand, SessionsOfAKilledServiceAreKeptOrMarkedInterrupted) {
   const int port = service.port();
   ASSERT_GT(port, 0) << "the service did not start: " << service.process().output().err;
   // One session finishes; the next is running when the service is killed.
-  Reply r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=5"})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  const std::string finished = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const std::string finished = start_session(port, R"({"source": "synth:corner?frames=5"})");
+  ASSERT_FALSE(finished.empty());
   EXPECT_EQ(wait_ended(port, finished)["state"], "finished");
-  r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=3000", "realtime": true})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  const std::string cut = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const std::string cut = start_session(port, R"({"source": "synth:corner?frames=3000", "realtime": true})");
+  ASSERT_FALSE(cut.empty());
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   ::kill(service.process().pid(), SIGKILL);
   service.process().wait_for(std::chrono::seconds(10));
@@ -390,9 +371,8 @@ TEST(ServiceCommand, ACameraUnpluggedMidSessionFailsItAndTheServiceGoesOn) {
   ChildService service(scratch, scratch.file("data"), testing::fakenect_env(dump));
   const int port = service.port();
   ASSERT_GT(port, 0) << "the service did not start: " << service.process().output().err;
-  Reply r = http(port, "POST", "/api/sessions", R"({"source": "freenect"})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const std::string id = start_session(port, R"({"source": "freenect"})");
+  ASSERT_FALSE(id.empty());
   const nlohmann::json s = wait_ended(port, id);
   EXPECT_EQ(s["state"], "failed");
   EXPECT_EQ(s["exit_code"], 4);
@@ -400,10 +380,9 @@ TEST(ServiceCommand, ACameraUnpluggedMidSessionFailsItAndTheServiceGoesOn) {
   EXPECT_EQ(s["stats"]["frames_read"], 8);  // what came before the unplug is kept
   EXPECT_EQ(http(port, "GET", "/api/sessions/" + id + "/files/mesh.ply").status, 200);
   // The service goes on: it answers and runs the next session.
-  r = http(port, "POST", "/api/sessions", R"({"source": "synth:corner?frames=4"})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  EXPECT_EQ(wait_ended(port, nlohmann::json::parse(r.body)["id"].get<std::string>())["state"],
-            "finished");
+  const std::string next = start_session(port, R"({"source": "synth:corner?frames=4"})");
+  ASSERT_FALSE(next.empty());
+  EXPECT_EQ(wait_ended(port, next)["state"], "finished");
 }
 
 TEST_F(ServiceTest, ARecordingWithoutOneUsableFrameFailsTheSessionOnly) {
@@ -411,9 +390,8 @@ TEST_F(ServiceTest, ARecordingWithoutOneUsableFrameFailsTheSessionOnly) {
   const std::filesystem::path rec = scratch_.path("data") / "broken";
   std::filesystem::create_directories(rec);
   std::ofstream(rec / "depth.txt") << "1.0 depth/1.png\n1.1 depth/2.png\n1.2 depth/3.png\n";
-  Reply r = http(port_, "POST", "/api/sessions", R"({"source": "broken"})");
-  ASSERT_EQ(r.status, 201) << r.body;
-  const std::string id = nlohmann::json::parse(r.body)["id"].get<std::string>();
+  const std::string id = start_session(port_, R"({"source": "broken"})");
+  ASSERT_FALSE(id.empty());
   const nlohmann::json s = wait_ended(port_, id);
   EXPECT_EQ(s["state"], "failed");
   EXPECT_EQ(s["exit_code"], 3);

@@ -28,31 +28,14 @@
 #include <civetweb.h>
 #include <nlohmann/json.hpp>
 
+#include "support/http_client.h"
+
 namespace {
 
-struct Reply {
-  int status = -1;
-  std::string body;
-};
+using Reply = aoscan::testing::HttpReply;
 
 Reply http(int port, const std::string& method, const std::string& path, const std::string& body = "") {
-  char error[256] = "";
-  mg_connection* conn = mg_connect_client("127.0.0.1", port, 0, error, sizeof(error));
-  if (!conn) return {};
-  mg_printf(conn,
-            "%s %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nX-Aoscan-Client: load\r\n"
-            "Content-Length: %zu\r\n\r\n",
-            method.c_str(), path.c_str(), body.size());
-  if (!body.empty()) mg_write(conn, body.data(), body.size());
-  Reply reply;
-  if (mg_get_response(conn, error, sizeof(error), 30000) >= 0) {
-    reply.status = mg_get_response_info(conn)->status_code;
-    char buffer[8192];
-    int n;
-    while ((n = mg_read(conn, buffer, sizeof(buffer))) > 0) reply.body.append(buffer, n);
-  }
-  mg_close_connection(conn);
-  return reply;
+  return aoscan::testing::http_request(port, method, path, body, "X-Aoscan-Client: load\r\n");
 }
 
 int free_port() {
