@@ -1,6 +1,13 @@
 /// @file host_cpu.cpp
 #include "core/host_cpu.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+
 #include <fstream>
 #include <sstream>
 
@@ -34,6 +41,14 @@ std::optional<double> steal_percent(const std::optional<HostCpuTimes>& before,
     return std::nullopt;
   return 100.0 * static_cast<double>(after->steal - before->steal) /
          static_cast<double>(after->total - before->total);
+}
+
+bool lower_thread_priority(int increment) {
+  const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
+  errno = 0;
+  const int own_nice = getpriority(PRIO_PROCESS, tid);
+  if (errno != 0) return false;
+  return setpriority(PRIO_PROCESS, tid, std::min(own_nice + increment, 19)) == 0;
 }
 
 }  // namespace aoscan

@@ -1,7 +1,8 @@
 /// @file host_cpu.h
 /// @brief The machine's CPU time counters (Linux /proc/stat): how much of the CPUs' time the
 /// hypervisor took for other guests ("steal") while a run was being timed. On a shared virtual
-/// machine a slow run with much steal says the host was busy, not the code.
+/// machine a slow run with much steal says the host was busy, not the code. And a thread's
+/// share of the CPUs (its nice value).
 #pragma once
 
 #include <cstdint>
@@ -25,5 +26,11 @@ std::optional<HostCpuTimes> read_host_cpu_times(const std::string& path = "/proc
 /// is missing or no time passed (or the counters went backwards).
 std::optional<double> steal_percent(const std::optional<HostCpuTimes>& before,
                                     const std::optional<HostCpuTimes>& after);
+
+/// Lowers the calling thread's scheduling priority by `increment` nice levels below its own (at
+/// most to 19), so that the work it does for a viewer (the live window, the service's stream)
+/// yields the CPU to fusion, also when the whole process runs under nice. False when the kernel
+/// refused (the thread then keeps its priority).
+bool lower_thread_priority(int increment);
 
 }  // namespace aoscan

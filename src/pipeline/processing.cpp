@@ -169,7 +169,7 @@ Status Processing::track(FrameWork& frame) {
       view_products_.load() &&
       frame.raw.sequence % static_cast<std::uint64_t>(view_products_every_.load()) == 0 &&
       (!view_demand_ || view_demand_(view_products_built_.load()));
-  if (frame.view_candidate && frame.fusion.status != TrackingStatus::kLost)
+  if (frame.view_candidate && view_colour_.load() && frame.fusion.status != TrackingStatus::kLost)
     reconstruction_.colour_image(*raycast, frame.model_colour);
   else
     frame.model_colour.resize(0, 0);

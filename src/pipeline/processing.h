@@ -169,6 +169,9 @@ class Processing {
     view_products_every_.store(every < 1 ? 1 : every);
     view_products_.store(enabled);
   }
+  /// Whether the view products include the fused colour image (FrameWork::model_colour): only
+  /// the colour views show it (thread-safe; on by default).
+  void set_view_colour(bool enabled) { view_colour_.store(enabled); }
   /// With a demand set (before the chain starts), the view products of a frame are built only
   /// when `ready(products built so far)` says the consumer has caught up: the window is shown as
   /// often as it can draw, and no product is made that it would never show. It is asked by the
@@ -238,6 +241,7 @@ class Processing {
   std::atomic<bool> paused_{false};
   std::atomic<bool> write_requested_{false};
   std::atomic<bool> view_products_{false};
+  std::atomic<bool> view_colour_{true};
   std::atomic<int> view_products_every_{1};
   std::function<bool(std::uint64_t)> view_demand_;
   std::atomic<std::uint64_t> view_products_built_{0};  ///< by the mvao stage (read by track)

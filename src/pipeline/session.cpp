@@ -3,11 +3,9 @@
 #include "pipeline/session.h"
 
 #include <sys/resource.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -173,10 +171,7 @@ class WindowThread {
       // the GL driver starts from it (software GL such as llvmpipe renders on the CPU).
       // Relative to the pipeline's own nice value, so that it stays below the pipeline when
       // aoscan itself runs under nice.
-      const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
-      errno = 0;
-      const int own_nice = getpriority(PRIO_PROCESS, tid);
-      if (errno != 0 || setpriority(PRIO_PROCESS, tid, std::min(own_nice + kWindowNice, 19)) != 0)
+      if (!lower_thread_priority(kWindowNice))
         spdlog::debug("live view: could not lower the window thread's priority");
       const ViewFeed feed = [&view] { return view.take_latest(); };
       const LiveViewResult result = run_live_view(options, feed, commands, stop_);
@@ -220,6 +215,9 @@ ChainSetup build_stages(const RunOptions& options, Processing& processing) {
   vopts.stage_names.push_back("capture");
   for (const StageDef& stage : chain.stages) vopts.stage_names.push_back(stage.name);
   vopts.publish = options.live_view || remote;
+  // Only the remote view alone may ask for some views (ViewStage::set_views).
+  vopts.publish_all_views = options.live_view || !options.snapshot_dir.empty();
+  vopts.on_colour_needed = [&processing](bool needed) { processing.set_view_colour(needed); };
   if (!options.snapshot_dir.empty()) {
     SnapshotOptions snapshots;
     snapshots.dir = options.snapshot_dir;

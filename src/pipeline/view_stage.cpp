@@ -31,6 +31,16 @@ double ViewStage::recent_fps(Clock::time_point now) {
   return span_s > 0 ? static_cast<double>(done_times_.size() - 1) / span_s : 0.0;
 }
 
+void ViewStage::set_views(const std::vector<View>& views) {
+  if (options_.publish_all_views) return;
+  const auto watched = [&views](View v) {
+    return std::find(views.begin(), views.end(), v) != views.end();
+  };
+  surface_wanted_.store(watched(View::kOrbit));
+  if (options_.on_colour_needed)
+    options_.on_colour_needed(watched(View::kColour) || watched(View::kColourMvao));
+}
+
 void ViewStage::fill(const FrameWork& frame, ViewFrame& view) {
   view.sequence = frame.raw.sequence;
   view.timestamp_s = frame.raw.timestamp_s;
@@ -95,7 +105,9 @@ Status ViewStage::process(FrameWork& frame) {
     surface_.reset();
   }
   if (frame.raycast) cloud_.add(frame.raycast->maps, frame.mvao, frame.fusion.T_world_camera);
-  if (!surface_ || ++frames_since_surface_ >= static_cast<std::size_t>(options_.surface_every)) {
+  ++frames_since_surface_;
+  if (surface_wanted_.load() &&
+      (!surface_ || frames_since_surface_ >= static_cast<std::size_t>(options_.surface_every))) {
     surface_ = cloud_.to_mesh();
     frames_since_surface_ = 0;
   }

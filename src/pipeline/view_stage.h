@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -31,6 +32,10 @@ struct ViewStageOptions {
   std::optional<SnapshotOptions> snapshots;  ///< write PNGs of every N-th frame
   SurfaceCloudOptions surface;               ///< the orbit view's point cloud
   int surface_every = 5;                     ///< frames between two published copies of the cloud
+  /// A window or snapshots consume the frames (they show every view): set_views() is ignored.
+  bool publish_all_views = true;
+  /// Told whether the views consumed need the fused colour (set_views()); may be empty.
+  std::function<void(bool)> on_colour_needed;
 };
 
 /// Owns the ViewFrame pool, the mailbox, the snapshot writer and the orbit cloud. process() and
@@ -63,6 +68,11 @@ class ViewStage {
   }
   /// Stops (false) or resumes building frames for the window, e.g. when none could be opened.
   void set_publish(bool publish) { publish_.store(publish); }
+  /// The views a consumer that shows only some of them (the service's viewers) watches now: the
+  /// fused colour is made only for the colour views, the orbit cloud's mesh only for the orbit
+  /// view. Ignored while a window or snapshots (which show every view) are consumers
+  /// (thread-safe).
+  void set_views(const std::vector<View>& views);
 
   std::size_t frames_seen() const { return frames_seen_.load(); }
   std::size_t snapshot_files() const { return snapshot_files_.load(); }
@@ -83,6 +93,7 @@ class ViewStage {
   std::deque<std::chrono::steady_clock::time_point> done_times_;
   std::vector<double> smoothed_ms_;
   std::atomic<bool> publish_{false};
+  std::atomic<bool> surface_wanted_{true};  ///< the orbit cloud's mesh is published
   std::atomic<std::size_t> frames_seen_{0};
   std::atomic<std::uint64_t> products_arrived_{0};  ///< frames with view products seen
   std::atomic<std::uint64_t> taken_version_{0};     ///< mailbox version take_latest() returned

@@ -217,10 +217,19 @@ void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<
   }
 }
 
-void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const ViewStyle& style) {
+int model_scale(const ViewFrame& frame) {
+  const int scale = image_scale(frame.depth_m, frame.intrinsics.width, frame.intrinsics.height);
+  return scale > 0 ? scale : 1;
+}
+
+void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const ViewStyle& style,
+                    int step) {
+  step = std::max(step, 1);
   const int width = frame.intrinsics.width;
   const int height = frame.intrinsics.height;
-  if (out.width() != width || out.height() != height) out.resize(width, height);
+  const int out_width = width / step;
+  const int out_height = height / step;
+  if (out.width() != out_width || out.height() != out_height) out.resize(out_width, out_height);
   if (view == View::kOrbit) {
     if (frame.surface && !frame.surface->empty()) {
       composite_orbit(*frame.surface, fit_orbit(*frame.surface), out, style);
@@ -242,34 +251,36 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
   const int depth_source_scale = raw > 0 ? raw : model;
   const float kNoData = std::numeric_limits<float>::quiet_NaN();
   const Eigen::Vector3f kNoNormal = Eigen::Vector3f::Zero();
-  for (int y = 0; y < height; ++y) {
-    Rgb8* dst = out.row(y);
-    for (int x = 0; x < width; ++x) {
+  for (int oy = 0; oy < out_height; ++oy) {
+    Rgb8* dst = out.row(oy);
+    const int y = oy * step;
+    for (int ox = 0; ox < out_width; ++ox) {
+      const int x = ox * step;
       const float d = model > 0 ? frame.depth_m(x / model, y / model) : 0.0f;
       const Eigen::Vector3f& n = normals > 0 ? frame.normals(x / normals, y / normals) : kNoNormal;
       switch (view) {
         case View::kShaded:
-          dst[x] = shade_mvao(d, n, mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
+          dst[ox] = shade_mvao(d, n, mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
           break;
         case View::kSsao:
-          dst[x] = shade_ssao(ssao > 0 ? frame.ssao(x / ssao, y / ssao) : kNoData, style);
+          dst[ox] = shade_ssao(ssao > 0 ? frame.ssao(x / ssao, y / ssao) : kNoData, style);
           break;
         case View::kMvao:
-          dst[x] =
+          dst[ox] =
               shade_mvao_grey(d, n, mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
           break;
         case View::kColour:
-          dst[x] = shade_colour(d, n, frame.colour(x / colour, y / colour), style);
+          dst[ox] = shade_colour(d, n, frame.colour(x / colour, y / colour), style);
           break;
         case View::kColourMvao:
-          dst[x] = shade_colour_mvao(d, n, frame.colour(x / colour, y / colour),
+          dst[ox] = shade_colour_mvao(d, n, frame.colour(x / colour, y / colour),
                                      mvao > 0 ? frame.mvao(x / mvao, y / mvao) : kNoData, style);
           break;
         case View::kNormals:
-          dst[x] = shade_normal(d, n, style);
+          dst[ox] = shade_normal(d, n, style);
           break;
         case View::kDepth:
-          dst[x] = shade_depth(depth_source_scale > 0
+          dst[ox] = shade_depth(depth_source_scale > 0
                                    ? depth_source(x / depth_source_scale, y / depth_source_scale)
                                    : 0.0f,
                                style);

@@ -91,9 +91,15 @@ Rgb8 shade_normal(float depth_m, const Eigen::Vector3f& normal_camera, const Vie
 Rgb8 shade_depth(float depth_m, const ViewStyle& style);
 
 /// The view as an image: the size of frame.intrinsics for the image views; for kOrbit the same
-/// size, seen from fit_orbit(*frame.surface). `out` is resized (its buffer reused).
+/// size, seen from fit_orbit(*frame.surface). `out` is resized (its buffer reused). With `step`
+/// > 1 the image is that many times smaller along each axis: its pixel (x, y) is the view's pixel
+/// (x * step, y * step) (a step equal to model_scale() loses nothing of the model's views).
 void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out,
-                    const ViewStyle& style = {});
+                    const ViewStyle& style = {}, int step = 1);
+
+/// Frame pixels per pixel of the frame's model raycast (2 for a half-resolution raycast), or 1
+/// when the frame has none.
+int model_scale(const ViewFrame& frame);
 
 /// The orbit view of `mesh` from `camera` into `out` (its size is kept; must not be empty).
 void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,

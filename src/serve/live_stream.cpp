@@ -8,6 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/host_cpu.h"
 #include "io/colour_image.h"
 #include "pipeline/view_stage.h"
 #include "render/composite.h"
@@ -139,6 +140,14 @@ std::size_t LiveStream::frames_encoded() const {
 void LiveStream::pump() {
   std::lock_guard<std::mutex> stage_lock(stage_mutex_);
   if (!stage_) return;
+  {
+    // The views watched decide what the pipeline makes for them (the fused colour, the orbit
+    // cloud): nothing for views nobody watches.
+    std::vector<View> watched;
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& viewer : viewers_) watched.push_back(viewer->view());
+    stage_->set_views(watched);
+  }
   std::shared_ptr<const ViewFrame> frame = stage_->take_latest();
   if (!frame) return;
   const bool resend = resend_.exchange(false);
@@ -170,7 +179,9 @@ void LiveStream::pump() {
       auto out = std::make_shared<EncodedFrame>();
       out->view = view;
       out->sequence = frame->sequence;
-      composite_view(*frame, view, image);
+      // At the model raycast's resolution (half the camera's by default): nothing of the
+      // model's views is lost and a quarter of the pixels is composited, encoded and sent.
+      composite_view(*frame, view, image, {}, model_scale(*frame));
       encode_colour_jpeg(image, options_.jpeg_quality, out->jpeg);
       it = encoded.emplace(view, std::move(out)).first;
       std::lock_guard<std::mutex> lock(mutex_);
@@ -181,6 +192,9 @@ void LiveStream::pump() {
 }
 
 void LiveStream::loop() {
+  // The stream yields the CPU to fusion, as the live window does: viewers get what it leaves.
+  if (!lower_thread_priority(kViewerNice))
+    spdlog::debug("serve: could not lower the live stream thread's priority");
   using Clock = std::chrono::steady_clock;
   Clock::time_point next = Clock::now();
   for (;;) {

@@ -1,6 +1,7 @@
 /// @file live_stream.h
-/// @brief The service's live view: the running session's view frames, composited on the CPU and
-/// encoded as JPEG at most `max_fps` times a second, handed to each viewer latest-wins, plus the
+/// @brief The service's live view: the running session's view frames, composited on the CPU at
+/// the model raycast's resolution and encoded as JPEG at most `max_fps` times a second, by a
+/// thread of low priority (kViewerNice), handed to each viewer latest-wins, plus the
 /// HUD figures of the newest frame for the status. A slow viewer skips frames; it never slows
 /// fusion or the other viewers.
 #pragma once
@@ -25,6 +26,9 @@
 namespace aoscan {
 
 class ViewStage;
+
+/// Nice levels below the pipeline at which the stream's thread and the viewers' senders run.
+inline constexpr int kViewerNice = 10;
 
 /// The HUD figures of the newest frame the stream took.
 struct LiveFigures {

@@ -11,6 +11,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/host_cpu.h"
 #include "pipeline/config.h"
 #include "serve/api.h"
 #include "serve/http_server.h"
@@ -136,6 +137,7 @@ struct Service::Impl {
       }
       ViewerConnection* c = connection.get();
       c->sender = std::thread([this, c, &peer] {
+        lower_thread_priority(kViewerNice);  // sending yields to fusion too
         auto next_status = std::chrono::steady_clock::now();
         while (!c->done.load()) {
           if (std::chrono::steady_clock::now() >= next_status) {

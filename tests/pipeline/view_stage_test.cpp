@@ -382,6 +382,40 @@ TEST(ViewStage, ColourSnapshotsShowTheFusedColourOrTheShadedView) {
   }
 }
 
+TEST(ViewStage, AConsumerOfSomeViewsGetsOnlyWhatTheyNeed) {
+  ViewStageOptions options = window_options();
+  options.publish_all_views = false;  // the service's viewers alone
+  std::vector<bool> colour_needed;
+  options.on_colour_needed = [&colour_needed](bool needed) { colour_needed.push_back(needed); };
+  ViewStage view(options);
+  const auto feed = [&view] {
+    FrameWork frame;
+    frame.view_products = true;
+    EXPECT_TRUE(view.process(frame).is_ok());
+    return view.take_latest();
+  };
+  view.set_views({View::kShaded, View::kDepth});
+  EXPECT_EQ(colour_needed, std::vector<bool>({false}));
+  EXPECT_EQ(feed()->surface, nullptr);  // no orbit viewer: no copy of the cloud
+  view.set_views({View::kOrbit, View::kColourMvao});
+  EXPECT_EQ(colour_needed, std::vector<bool>({false, true}));
+  EXPECT_NE(feed()->surface, nullptr);
+  view.set_views({View::kColour});
+  EXPECT_EQ(colour_needed.back(), true);
+
+  // With a window or snapshots every view is made, whatever set_views() says.
+  ViewStageOptions all = window_options();
+  bool told = false;
+  all.on_colour_needed = [&told](bool) { told = true; };
+  ViewStage window(all);
+  window.set_views({View::kShaded});
+  EXPECT_FALSE(told);
+  FrameWork frame;
+  frame.view_products = true;
+  ASSERT_TRUE(window.process(frame).is_ok());
+  EXPECT_NE(window.take_latest()->surface, nullptr);
+}
+
 TEST(ViewStage, ASlowWindowNeverBlocksTheChain) {
   ViewStage view(window_options());
   // The "window" takes the newest frame every 50 ms and holds on to every frame it took.

@@ -355,6 +355,47 @@ TEST(Orbit, VertexInputsAreSanitised) {
   EXPECT_EQ(vertex_normal(mesh, 1), Eigen::Vector3f(0, 1, 0));
 }
 
+TEST(Composite, ASteppedViewIsTheFullViewsPixelsAtTheStep) {
+  // An 8x6 frame with a half-resolution model (4x3) whose every pixel differs, and full-resolution
+  // raw depth.
+  ViewFrame f;
+  f.intrinsics.width = 8;
+  f.intrinsics.height = 6;
+  f.depth_m.resize(4, 3, 0.0f);
+  f.normals.resize(4, 3, Eigen::Vector3f(0, 0, -1));
+  f.ssao.resize(4, 3, 0.0f);
+  f.mvao.resize(4, 3, 0.0f);
+  f.colour.resize(4, 3, Rgb8{0, 0, 0});
+  f.raw_depth_m.resize(8, 6, 0.0f);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 4; ++x) {
+      const int i = y * 4 + x;
+      f.depth_m(x, y) = 0.5f + 0.1f * static_cast<float>(i);
+      f.normals(x, y) = Eigen::Vector3f(0.05f * static_cast<float>(x), 0.1f * static_cast<float>(y), -1.0f).normalized();
+      f.ssao(x, y) = static_cast<float>(i) / 12.0f;
+      f.mvao(x, y) = 1.0f - static_cast<float>(i) / 12.0f;
+      f.colour(x, y) = Rgb8{static_cast<std::uint8_t>(20 * i), 100, static_cast<std::uint8_t>(200 - 10 * i)};
+    }
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 8; ++x) f.raw_depth_m(x, y) = 0.5f + 0.07f * static_cast<float>(y * 8 + x);
+  EXPECT_EQ(model_scale(f), 2);
+  for (int v = 0; v < kViewCount; ++v) {
+    const View view = static_cast<View>(v);
+    if (view == View::kOrbit) continue;
+    Image<Rgb8> full;
+    Image<Rgb8> half;
+    composite_view(f, view, full);
+    composite_view(f, view, half, {}, 2);
+    ASSERT_EQ(full.width(), 8);
+    ASSERT_EQ(half.width(), 4);
+    ASSERT_EQ(half.height(), 3);
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 4; ++x) EXPECT_EQ(half(x, y), full(2 * x, 2 * y)) << view_name(view);
+  }
+  ViewFrame no_model;
+  EXPECT_EQ(model_scale(no_model), 1);
+}
+
 TEST(Composite, OrbitViewOfAFrameUsesItsSurface) {
   ViewFrame f = testing::sphere_wall_frame(64, 48);
   Image<Rgb8> out;

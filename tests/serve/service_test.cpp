@@ -141,18 +141,19 @@ TEST_F(ServiceTest, TheLiveViewStreamsChangingFramesAndTheStatus) {
   }
   ASSERT_GE(frames.size(), 4u);
   ASSERT_GE(texts.size(), 2u);
-  // Each frame is a JPEG of the depth camera's size; not all the same; not blank.
+  // Each frame is a JPEG of the model raycast's size (half the camera's); not all the same; not
+  // blank.
   bool changed = false;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     Image<Rgb8> image;
     ASSERT_TRUE(decode_colour_image(reinterpret_cast<const std::uint8_t*>(frames[i].data()),
                                     frames[i].size(), image, "frame")
                     .is_ok());
-    EXPECT_EQ(image.width(), 640);
-    EXPECT_EQ(image.height(), 480);
+    EXPECT_EQ(image.width(), 320);
+    EXPECT_EQ(image.height(), 240);
     int lit = 0;
-    for (int y = 0; y < image.height(); y += 8)
-      for (int x = 0; x < image.width(); x += 8) lit += image(x, y).r > 60 ? 1 : 0;
+    for (int y = 0; y < image.height(); y += 4)
+      for (int x = 0; x < image.width(); x += 4) lit += image(x, y).r > 60 ? 1 : 0;
     EXPECT_GT(lit, 100) << "frame " << i << " is nearly blank";
     if (i > 0 && frames[i] != frames[0]) changed = true;
   }
