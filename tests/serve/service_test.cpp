@@ -226,13 +226,26 @@ TEST_F(ServiceTest, ManyConnectionsAndAViewerThatVanishesMidFrame) {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     mg_close_connection(ws);
   }
-  // The service goes on answering and fusing.
-  Reply r = http(port_, "GET", "/api/sessions/" + id);
-  ASSERT_EQ(r.status, 200);
-  const std::size_t before = nlohmann::json::parse(r.body)["live"]["frames_processed"];
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  r = http(port_, "GET", "/api/sessions/" + id);
-  EXPECT_GT(nlohmann::json::parse(r.body)["live"]["frames_processed"].get<std::size_t>(), before);
+  // The service goes on answering and fusing (its frames keep coming; a slow build, such as a
+  // sanitizer's, may take seconds for the first ones).
+  const auto fused = [&] {
+    const Reply r = http(port_, "GET", "/api/sessions/" + id);
+    EXPECT_EQ(r.status, 200);
+    return r.status == 200
+               ? nlohmann::json::parse(r.body)["live"]["frames_processed"].get<std::size_t>()
+               : std::size_t{0};
+  };
+  const auto wait_beyond = [&](std::size_t frames) {
+    std::size_t now = fused();
+    for (int i = 0; i < 600 && now <= frames; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      now = fused();
+    }
+    return now;
+  };
+  const std::size_t before = wait_beyond(0);
+  EXPECT_GT(before, 0u);
+  EXPECT_GT(wait_beyond(before), before);
   EXPECT_EQ(http(port_, "POST", "/api/sessions/" + id + "/stop").status, 200);
 }
 
