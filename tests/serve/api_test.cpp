@@ -160,7 +160,7 @@ TEST_F(ApiTest, ASecondSessionWaitsAndStopWritesTheOutputs) {
 
   // Live figures while it runs.
   nlohmann::json s;
-  for (int i = 0; i < 1000; ++i) {
+  for (int i = 0; i < 3000; ++i) {  // up to a minute (a sanitizer build is slow to start)
     s = json_of(api_->handle(request("GET", "/api/sessions/" + id)));
     if (s["live"]["frames_processed"].get<std::size_t>() >= 3) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
