@@ -17,8 +17,9 @@ namespace aoscan {
 
 nlohmann::json LiveFigures::to_json() const {
   if (!valid) return nullptr;
-  nlohmann::json stages = nlohmann::json::object();
-  for (const auto& [name, ms] : stage_ms) stages[name] = ms;
+  // In the chain's order (capture first): a JSON object would sort them by name.
+  nlohmann::json stages = nlohmann::json::array();
+  for (const auto& [name, ms] : stage_ms) stages.push_back({{"stage", name}, {"ms", ms}});
   return {{"sequence", sequence},
           {"fps", fps},
           {"stage_ms", stages},

@@ -36,6 +36,7 @@ void feed(ViewStage& stage, std::uint64_t sequence) {
   frame.raw.intrinsics.width = 64;
   frame.raw.intrinsics.height = 48;
   frame.view_products = true;
+  frame.stage_ms = {5.0, 7.0};  // capture, then a stage named "view" (publishing())
   ASSERT_TRUE(stage.process(frame).is_ok());
 }
 
@@ -78,6 +79,12 @@ TEST(LiveStream, EachViewerGetsTheNewestFrameAndASlowOneOnlySkips) {
   EXPECT_EQ(figures.sequence, 4u);
   EXPECT_EQ(figures.frames_processed, 5u);
   EXPECT_EQ(figures.to_json()["sequence"], 4);
+  // The stages in the chain's order, not sorted by name.
+  const nlohmann::json stages = figures.to_json()["stage_ms"];
+  ASSERT_EQ(stages.size(), 2u);
+  EXPECT_EQ(stages[0]["stage"], "capture");
+  EXPECT_EQ(stages[0]["ms"], 5.0);
+  EXPECT_EQ(stages[1]["stage"], "view");
 
   // A viewer that changes its view gets the current frame again in it.
   fast->set_view(View::kNormals);

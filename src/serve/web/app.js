@@ -76,7 +76,7 @@ function showStatus(status) {
     if (live.fps !== undefined) hud.append(row('fps', live.fps.toFixed(1)));
     if (live.view) {
       hud.append(row('tracking', live.view.tracking));
-      for (const [stage, ms] of Object.entries(live.view.stage_ms)) hud.append(row(`${stage} ms`, ms.toFixed(1)));
+      for (const { stage, ms } of live.view.stage_ms) hud.append(row(`${stage} ms`, ms.toFixed(1)));
     }
     hud.append(row('integration', live.integration_paused ? 'paused' : 'on'));
   } else if (state) {
