@@ -229,8 +229,8 @@ ChainSetup build_stages(const RunOptions& options, Processing& processing) {
   ViewStage* stage = chain.view.get();
   // With the window (or the remote view) alone, view products (the MVAO image, a grid lookup
   // per raycast pixel, and the view frame) are built only once the window has taken the last
-  // one: it draws on CPU time fusion leaves, and products it would never show would take that time from fusion.
-  // Snapshots need every frame's.
+  // one: it draws on CPU time fusion leaves, and products it would never show would take that
+  // time from fusion. Snapshots need every frame's.
   if (options.snapshot_dir.empty())
     processing.set_view_demand([stage](std::uint64_t built) { return stage->caught_up(built); });
   chain.stages.push_back({"view", [stage](FrameWork& frame) { return stage->process(frame); }});

@@ -43,7 +43,6 @@ std::shared_ptr<const EncodedFrame> LiveViewer::next(std::chrono::milliseconds t
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait_for(lock, timeout, [this] { return closed_ || pending_ != nullptr; });
   if (closed_ || !pending_) return nullptr;
-  ++taken_;
   return std::exchange(pending_, nullptr);
 }
 
@@ -59,11 +58,6 @@ void LiveViewer::close() {
 bool LiveViewer::closed() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return closed_;
-}
-
-std::size_t LiveViewer::frames_taken() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return taken_;
 }
 
 std::size_t LiveViewer::frames_skipped() const {

@@ -62,7 +62,6 @@ class LiveViewer {
   /// Wakes next() for good.
   void close();
   bool closed() const;
-  std::size_t frames_taken() const;
   std::size_t frames_skipped() const;  ///< replaced before the viewer took them
 
  private:
@@ -74,7 +73,6 @@ class LiveViewer {
   View view_;
   std::shared_ptr<const EncodedFrame> pending_;
   bool closed_ = false;
-  std::size_t taken_ = 0;
   std::size_t skipped_ = 0;
 };
 

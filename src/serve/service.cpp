@@ -34,6 +34,16 @@ struct ViewerConnection {
   std::thread sender;
 };
 
+/// ID of a path /api/sessions/ID/live, or nullopt for any other path.
+std::optional<std::string> live_session_of(const std::string& path) {
+  const std::string prefix = "/api/sessions/";
+  const std::string suffix = "/live";
+  if (path.rfind(prefix, 0) != 0 || path.size() <= prefix.size() + suffix.size() ||
+      path.compare(path.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return std::nullopt;
+  return path.substr(prefix.size(), path.size() - prefix.size() - suffix.size());
+}
+
 }  // namespace
 
 std::pair<std::string, int> parse_listen_address(const std::string& listen) {
@@ -104,18 +114,13 @@ struct Service::Impl {
         refusal = error_response(401, "the live view needs the service's token");
         return false;
       }
-      const std::string prefix = "/api/sessions/";
-      const std::string suffix = "/live";
-      const std::string& path = request.path;
-      if (path.rfind(prefix, 0) != 0 || path.size() <= prefix.size() + suffix.size() ||
-          path.compare(path.size() - suffix.size(), suffix.size(), suffix) != 0) {
-        refusal = error_response(404, "no WebSocket at " + path);
+      const std::optional<std::string> id = live_session_of(request.path);
+      if (!id) {
+        refusal = error_response(404, "no WebSocket at " + request.path);
         return false;
       }
-      const std::string id =
-          path.substr(prefix.size(), path.size() - prefix.size() - suffix.size());
-      if (id != "current" && !plausible_session_id(id)) {
-        refusal = error_response(404, "no session '" + id + "'");
+      if (*id != "current" && !plausible_session_id(*id)) {
+        refusal = error_response(404, "no session '" + *id + "'");
         return false;
       }
       return true;
@@ -123,8 +128,7 @@ struct Service::Impl {
     handler.opened = [this](const HttpRequest& request,
                             WebSocketPeer& peer) -> std::shared_ptr<void> {
       auto connection = std::make_shared<ViewerConnection>();
-      const std::string path = request.path;
-      connection->session = path.substr(14, path.size() - 14 - 5);
+      connection->session = live_session_of(request.path).value_or("current");
       View view = View::kShaded;
       if (const std::optional<std::string> name = form_value(request.query, "view"))
         view = view_named(*name).value_or(View::kShaded);

@@ -84,7 +84,6 @@ class SessionManager {
   void shutdown();
 
   LiveStream& stream() { return stream_; }
-  const std::filesystem::path& data_dir() const { return options_.data_dir; }
 
  private:
   struct Running;
