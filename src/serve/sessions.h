@@ -19,34 +19,15 @@
 
 #include "render/view_commands.h"
 #include "serve/live_stream.h"
+#include "serve/session_request.h"
 
 namespace aoscan {
-
-/// A request the service refuses; `status` is the HTTP status it answers with.
-class ServiceError : public std::runtime_error {
- public:
-  ServiceError(int status, const std::string& message)
-      : std::runtime_error(message), status_(status) {}
-  int status() const { return status_; }
-
- private:
-  int status_;
-};
 
 struct SessionManagerOptions {
   std::filesystem::path data_dir;    ///< recordings (relative sources) and sessions/
   std::string config_file;           ///< the service's --config ("" = none)
   std::vector<std::string> sets;     ///< the service's --set KEY=VALUE, before a session's own
   int threads = 0;                   ///< worker threads of a session; 0 = all cores
-};
-
-/// What POST /api/sessions asks for.
-struct SessionRequest {
-  std::string source;              ///< as for replay/scan: a recording under data_dir, synth:, a camera
-  std::vector<std::string> sets;   ///< KEY=VALUE, after the service's
-  bool realtime = false;           ///< pace a recording by its timestamps (as --realtime)
-  std::optional<std::size_t> max_frames;  ///< as --frames
-  std::optional<std::int64_t> loop;       ///< as replay --loop N (a recording or synth: scene)
 };
 
 class SessionManager {
