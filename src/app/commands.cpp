@@ -107,8 +107,9 @@ ExitCode run_print_config(const RunArgs& args) {
   return ExitCode::kOk;
 }
 
-ExitCode run_scans_command(const ScansArgs& args) {
+ExitCode run_scans_command(const ScansArgs& args, const std::atomic<bool>& stop_requested) {
   ScansOptions options = args.scans;
+  options.stop = &stop_requested;
   options.config = load_config(args.config_file, args.sets);
   options.show_progress = !args.no_progress;
   const std::unique_ptr<Ranks> ranks = open_ranks();
@@ -131,6 +132,12 @@ ExitCode run_scans_command(const ScansArgs& args) {
     ranks->abort(static_cast<int>(e.code()));
   }
   if (ranks->rank() != 0) return ExitCode::kOk;
+  if (r.interrupted) {
+    std::fprintf(stderr,
+                 "aoscan: error: stopped before the outputs (stats.json says interrupted): the "
+                 "same command with --resume continues from the scratch folder\n");
+    return ExitCode::kFailure;
+  }
   if (!r.failed_outputs.empty()) {
     std::fprintf(stderr, "aoscan: error: %s\n", one_line(r.failed_outputs.front().second).c_str());
     return ExitCode::kFailure;

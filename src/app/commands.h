@@ -56,6 +56,6 @@ ExitCode run_replay(const RunArgs& args, const std::atomic<bool>& stop_requested
 ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_requested);
 ExitCode run_devices();
 ExitCode run_print_config(const RunArgs& args);
-ExitCode run_scans_command(const ScansArgs& args);
+ExitCode run_scans_command(const ScansArgs& args, const std::atomic<bool>& stop_requested);
 
 }  // namespace aoscan

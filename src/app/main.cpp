@@ -55,8 +55,11 @@ extern "C" void forward_stop_signal(int signo) {
 /// finish; a third abandons the outputs, says which are not written, and ends the process.
 class StopSignals {
  public:
-  StopSignals(std::atomic<bool>& stop_requested, const ExportProgress& progress)
-      : stop_requested_(stop_requested), progress_(progress) {
+  /// `stopping`: what the first signal does, as the message says it.
+  StopSignals(std::atomic<bool>& stop_requested, const ExportProgress& progress,
+              const char* stopping = "stopping; the frames in flight are finished and the "
+                                     "outputs written")
+      : stop_requested_(stop_requested), progress_(progress), stopping_(stopping) {
     const sigset_t set = stop_signal_set();
     pthread_sigmask(SIG_BLOCK, &set, nullptr);  // before any other thread starts: all inherit it
     std::atomic<bool> started{false};
@@ -92,10 +95,8 @@ class StopSignals {
       const char* name = sigabbrev_np(signo);
       if (count == 1) {
         stop_requested_.store(true);
-        std::fprintf(stderr,
-                     "aoscan: SIG%s: stopping; the frames in flight are finished and the outputs "
-                     "written (a third signal abandons them)\n",
-                     name);
+        std::fprintf(stderr, "aoscan: SIG%s: %s (a third signal abandons them)\n", name,
+                     stopping_);
       } else if (count == 2) {
         const std::string where = progress_.describe();
         std::fprintf(stderr, "aoscan: SIG%s: finishing the outputs%s; a third signal abandons them\n",
@@ -122,6 +123,7 @@ class StopSignals {
 
   std::atomic<bool>& stop_requested_;
   const ExportProgress& progress_;
+  const char* stopping_;
   std::atomic<bool> done_{false};
   std::thread thread_;
 };
@@ -398,7 +400,12 @@ int run(int argc, char** argv) {
     }
     if (*devices) return static_cast<int>(run_devices());
     if (*config) return static_cast<int>(run_print_config(config_args));
-    if (*scans) return static_cast<int>(run_scans_command(scans_args));
+    if (*scans) {
+      const StopSignals signals(stop_requested, export_progress,
+                                "stopping before the next scan; the scratch folder keeps the "
+                                "finished ones for --resume");
+      return static_cast<int>(run_scans_command(scans_args, stop_requested));
+    }
     if (*serve) {
       const StopSignals signals(stop_requested, export_progress);
       return static_cast<int>(run_service(serve_args, stop_requested));

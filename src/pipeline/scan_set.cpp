@@ -504,7 +504,9 @@ void join_scan_files(const std::string& path, const std::vector<std::string>& fi
 void write_stats(const std::string& path, const ScansResult& r, const ScansOptions& options,
                  const OutputFolder& folder, const std::string& scratch, int ranks) {
   nlohmann::json j;
-  j["status"] = r.failed_outputs.empty() ? "complete" : "failed";
+  j["status"] = r.interrupted               ? "interrupted"
+                : r.failed_outputs.empty() ? "complete"
+                                           : "failed";
   j["scans"] = r.scans.size();
   j["points"] = r.points;
   j["wall_s"] = r.wall_s;
@@ -552,6 +554,13 @@ void write_stats(const std::string& path, const ScansResult& r, const ScansOptio
   });
 }
 
+/// Thrown at a scan boundary of the SSAO and MVAO stages once a stop is requested.
+struct ScansStopped {};
+
+void check_stop(const ScansOptions& options) {
+  if (options.stop != nullptr && options.stop->load()) throw ScansStopped{};
+}
+
 /// The first stage, this rank's share: every unit's scans loaded, their normals, SSAO and border
 /// distances computed and written to the scratch folder, one scan in memory at a time. A unit of
 /// one scan is read only by the rank that computes it; a PTX file or a recording by every rank
@@ -591,6 +600,7 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
     const ScanSink sink = [&](ScanAo& scan, ScanSummary& summary) {
       const ScanId id{u, record.scans++};
       if (owner(id, ranks.size()) != ranks.rank()) return;
+      check_stop(options);
       if (!names.insert(scan.map.name).second)
         throw input_error(summary.source + ": a second scan named " + scan.map.name);
       const std::string file = scratch.scan_file(id);
@@ -750,6 +760,7 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
     std::sort(needed.begin(), needed.end());
     needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
     for (int j : needed) {
+      check_stop(options);
       const std::shared_ptr<const ScanAo> scan_j = cache.get(ids[j].key(), infos[j].loaded_bytes());
       for (std::size_t b = 0; b < batch.size(); ++b)
         if (std::binary_search(candidates[batch[b]].begin(), candidates[batch[b]].end(), j))
@@ -838,6 +849,26 @@ void write_mesh(const ScansOptions& options, const std::vector<ScanId>& ids,
   result.mesh_s = seconds_since(start);
 }
 
+/// After a stop in the SSAO or MVAO stage: stats.json says "interrupted" (no other output is
+/// written) and the scratch folder stays for --resume; several ranks are aborted (the others may
+/// be waiting for this one).
+ScansResult stopped(const ScansOptions& options, OutputFolder& folder, const Scratch& scratch,
+                    Ranks& ranks, Clock::time_point start, ScansResult& result) {
+  if (ranks.size() > 1) {
+    std::fprintf(stderr,
+                 "aoscan: error: stopped by a signal (rank %d of %d); the scratch folder %s keeps "
+                 "the finished scans for --resume\n",
+                 ranks.rank(), ranks.size(), scratch.dir().c_str());
+    ranks.abort(static_cast<int>(ExitCode::kFailure));
+  }
+  result.interrupted = true;
+  result.wall_s = seconds_since(start);
+  folder.write("stats.json", [&](const std::string& path) {
+    write_stats(path, result, options, folder, scratch.dir(), ranks.size());
+  });
+  return result;
+}
+
 }  // namespace
 
 ScansResult run_scans(const ScansOptions& options) { return run_scans(options, *single_process()); }
@@ -867,7 +898,11 @@ ScansResult run_scans(const ScansOptions& options, Ranks& ranks) {
                                       static_cast<long long>(key & 0xffffffffu)}),
                    scan);
   });
-  first_stage(options, units, scratch, plan, cache, ranks, result);
+  try {
+    first_stage(options, units, scratch, plan, cache, ranks, result);
+  } catch (const ScansStopped&) {
+    return stopped(options, folder, scratch, ranks, start, result);
+  }
   ranks.barrier();
   std::vector<ScanId> ids;
   std::vector<ScanInfo> infos;
@@ -886,7 +921,11 @@ ScansResult run_scans(const ScansOptions& options, Ranks& ranks) {
   }
 
   const Clock::time_point integrate_start = Clock::now();
-  if (!options.ssao_only) second_stage(options, ids, infos, scratch, plan, cache, ranks, result);
+  try {
+    if (!options.ssao_only) second_stage(options, ids, infos, scratch, plan, cache, ranks, result);
+  } catch (const ScansStopped&) {
+    return stopped(options, folder, scratch, ranks, start, result);
+  }
   result.integrate_s = seconds_since(integrate_start);
   result.scans_resumed = ranks.sum(result.scans_resumed);
   result.integrations_resumed = ranks.sum(result.integrations_resumed);

@@ -4,6 +4,7 @@
 /// integrate them (Eq. 6-12), and write every scan's points with their AO.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -43,6 +44,12 @@ struct ScansOptions {
   /// Also write mesh.ply: the scans fused into a TSDF (tsdf.* keys), each vertex with the AO of
   /// the nearest scan point (pipeline/scan_mesh.h).
   bool mesh = false;
+  /// Set by a stop request (a signal): the run stops before the next scan of the SSAO or MVAO
+  /// stage, keeps its scratch folder (so that --resume continues from there), writes stats.json
+  /// with status "interrupted" and returns with ScansResult::interrupted; once the outputs are
+  /// being written they are finished. Under several ranks the job is aborted instead (the scratch
+  /// folder is kept alike). Null: not stoppable.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 /// One scan of the set, as loaded.
@@ -57,6 +64,7 @@ struct ScanSummary {
 
 /// What run_scans() did; written as stats.json.
 struct ScansResult {
+  bool interrupted = false;  ///< stopped by ScansOptions::stop before the outputs (none written)
   std::vector<ScanSummary> scans;
   long long points = 0;
   long long frames_without_pose = 0;  ///< recording frames skipped for want of a pose

@@ -1,11 +1,15 @@
 // End-to-end tests of the out-of-core side of `aoscan scans`: a memory limit that holds only a
 // few scans at once, resuming from the scratch folder, and what goes wrong there. Each compares
 // the outputs byte for byte with an unconstrained run of the same set.
+#include <signal.h>
+
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -173,6 +177,35 @@ TEST_F(ScansOutOfCore, AFullScratchDiskIsAnErrorNamingTheFileAndTheRunResumesAft
   const testing::CliRun resumed = scans("out", "--resume");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   EXPECT_EQ(ply("out"), ply("reference"));
+}
+
+TEST_F(ScansOutOfCore, ASignalStopsBeforeTheNextScanAndResumeFinishesWithTheSameBytes) {
+  // Every second frame a scan (21) at 5 x 5: seconds of work, stopped once its first scan is
+  // written (the signal is taken from then on).
+  const std::string set = quote(rec()) + " --every 2 --neighbourhood 5 --threads 2 --out ";
+  const testing::CliRun whole = run_aoscan("scans " + set + quote(dir_.file("whole")), dir_.str());
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  testing::AoscanProcess run("scans " + set + quote(dir_.file("out")), fs::path(dir_.str()));
+  ASSERT_TRUE(run.started());
+  const fs::path first_scan = dir_.file("out/scratch/scan-000000-000000.bin");
+  for (int i = 0; i < 3000 && !fs::exists(first_scan) && !run.poll(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_FALSE(run.poll()) << "the run ended before the signal: " << run.output().err;
+  kill(run.pid(), SIGINT);
+  const std::optional<int> code = run.wait_for(std::chrono::seconds(60));
+  ASSERT_TRUE(code) << "no exit after SIGINT";
+  const std::string err = run.output().err;
+  EXPECT_EQ(*code, 1) << err;
+  EXPECT_NE(err.find("aoscan: SIGINT: stopping before the next scan"), std::string::npos) << err;
+  EXPECT_NE(err.find("aoscan: error: stopped before the outputs"), std::string::npos) << err;
+  EXPECT_EQ(read_stats(dir_.file("out"))["status"], "interrupted");
+  EXPECT_FALSE(fs::exists(dir_.file("out/points.ply")));
+  EXPECT_TRUE(fs::exists(first_scan));
+  const testing::CliRun resumed =
+      run_aoscan("scans " + set + quote(dir_.file("out")) + " --resume", dir_.str());
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_GT(read_stats(dir_.file("out"))["scans_resumed"].get<long long>(), 0);
+  EXPECT_EQ(ply("out"), ply("whole"));
 }
 
 TEST_F(ScansOutOfCore, AScratchFolderInAnotherPlaceIsUsedAndOnlyItsOwnFilesRemoved) {

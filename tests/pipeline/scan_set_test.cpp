@@ -4,6 +4,7 @@
 #include "pipeline/scan_set.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -122,6 +123,39 @@ TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
   ASSERT_EQ(ssao.vertices.size(), all.vertices.size());
   EXPECT_EQ(ssao.vertices, all.vertices);
   EXPECT_NE(ssao.quality, all.quality);
+}
+
+TEST(ScanSet, AStoppedRunWritesOnlyItsInterruptedStatusAndResumesToTheSameBytes) {
+  ScratchDir dir;
+  const std::string manifest = write_two_laser_scans(dir);
+  ScansOptions options;
+  options.inputs = {manifest};
+  options.out_dir = dir.file("whole");
+  run_scans(options);
+
+  // Stopped before its first scan: no point cloud, stats.json "interrupted", the scratch folder
+  // kept.
+  const std::atomic<bool> stop{true};
+  options.out_dir = dir.file("out");
+  options.stop = &stop;
+  const ScansResult stopped = run_scans(options);
+  EXPECT_TRUE(stopped.interrupted);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out/points.ply")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out/scans")));
+  const nlohmann::json stats = read_json(dir.file("out/stats.json"));
+  EXPECT_EQ(stats["status"], "interrupted");
+  EXPECT_TRUE(std::filesystem::exists(dir.file("out/scratch/run.json")));
+
+  // Continued with --resume and no stop: the bytes of the whole run.
+  options.stop = nullptr;
+  options.resume = true;
+  const ScansResult resumed = run_scans(options);
+  EXPECT_FALSE(resumed.interrupted);
+  EXPECT_EQ(read_json(dir.file("out/stats.json"))["status"], "complete");
+  std::ifstream a(dir.file("whole/points.ply"), std::ios::binary);
+  std::ifstream b(dir.file("out/points.ply"), std::ios::binary);
+  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), std::istreambuf_iterator<char>(),
+                         std::istreambuf_iterator<char>(b), std::istreambuf_iterator<char>()));
 }
 
 TEST(ScanSet, PtxFilesAndMeshlabProjectsGiveTheSameScanSets) {
