@@ -15,8 +15,14 @@ enum class AoInput { kRaycast, kRaw };
 /// obscurance form (only samples above the tangent plane occlude, weighted by elevation and
 /// 1 - rho); Alchemy (McGuire et al. 2011); horizon-based (GTAO-like cosine-weighted slice
 /// integral with rho); heightfield (Eq. 1 integrated exactly on each slice's height profile up to
-/// t_max).
-enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon, kHeightfield };
+/// t_max); statvo (Hendrickx et al. 2015: statistical volumetric obscurance in adaptive depth
+/// layers from summed-area tables, ao/statvo.h).
+enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon, kHeightfield, kStatVo };
+/// Weight of a pixel's SSAO in the MVAO grid (contract key ao.integration = mvao): the paper's
+/// w_d * w_n (Sabbadin et al. 2016 Eq. 9-11, w_d from the distance to the camera), or Vardis et
+/// al. 2013's b * w_d + (1 - b) * w_n (Eq. 3-5, w_d from the mean distance of the pixel's SSAO
+/// samples to it: views whose samples land on other surfaces count less).
+enum class AoViewWeight { kPaper, kVardis };
 
 /// Screen-space AO and the multi-view AO grid (Sabbadin et al. 2016 Sec. 4 and 6).
 struct AoConfig {
@@ -93,6 +99,16 @@ struct AoConfig {
   /// decay / (1 - decay) views' weight. 1 = off (every view counts fully); 0 keeps only the first
   /// view of each still period.
   double still_view_decay = 1.0;
+  /// The MVAO weight of a pixel (AoViewWeight) and Vardis et al.'s blend b of their distance
+  /// weight (b = 1: distance only); their b is 0.8-0.9 for the solid-angle estimators (Alchemy).
+  /// vardis needs a point estimator (paper, obscurance, alchemy).
+  AoViewWeight view_weight = AoViewWeight::kPaper;
+  double vardis_b = 0.85;
+  /// Importance sampling (Vardis et al. 2013 Eq. 6): > 0 evaluates this many of the N samples
+  /// first, then (N - n) w (1 + O) / 2 more, w the pixel's weight and O = 1 - AO its obscurance
+  /// from the first ones: pixels that weigh little in the grid or are open take fewer samples.
+  /// 0 = off (every pixel takes N). Point estimators only.
+  int importance_samples = 0;
   double still_view_distance_m = 0.01;
   double still_view_angle_deg = 1.0;
 
@@ -114,12 +130,13 @@ struct AoConfig {
              {{"raycast", AoInput::kRaycast}, {"raw", AoInput::kRaw}});
     v.choice("estimator", estimator,
              "SSAO estimator: paper (Eq. 3-5 as printed), obscurance, alchemy, horizon, "
-             "heightfield",
+             "heightfield, statvo (summed-area tables)",
              {{"paper", AoEstimator::kPaper},
               {"obscurance", AoEstimator::kObscurance},
               {"alchemy", AoEstimator::kAlchemy},
               {"horizon", AoEstimator::kHorizon},
-              {"heightfield", AoEstimator::kHeightfield}});
+              {"heightfield", AoEstimator::kHeightfield},
+              {"statvo", AoEstimator::kStatVo}});
     v.number("bias", bias,
              "SSAO alchemy/obscurance/heightfield: a sample occludes only above the tangent plane "
              "by more than bias * depth (m per m of depth)",
@@ -154,6 +171,16 @@ struct AoConfig {
     v.number("still_view_angle_deg", still_view_angle_deg,
              "still camera: ... and its optical axis within this angle of that view's (degrees)",
              0.0, 180.0);
+    v.choice("view_weight", view_weight,
+             "mvao weight of a pixel: paper (w_d * w_n, w_d from the depth) or vardis "
+             "(b * w_d + (1 - b) * w_n, w_d from the mean distance of its SSAO samples)",
+             {{"paper", AoViewWeight::kPaper}, {"vardis", AoViewWeight::kVardis}});
+    v.number("vardis_b", vardis_b, "view_weight vardis: the blend b of the distance weight", 0.0,
+             1.0);
+    v.integer("importance_samples", importance_samples,
+              "SSAO importance sampling: this many samples first, then (samples - this) * weight "
+              "* (2 - AO) / 2 more; 0 = off (point estimators)",
+              0, 1024);
     v.integer("live_max_interval", live_max_interval,
               "live: while frames are dropped in front of tracking, SSAO runs on every 3rd, "
               "5th, ... tracked frame up to this (1 = every frame)",

@@ -25,6 +25,8 @@ using detail::kHalfPiF;
 using detail::kMaxRadiusPx;
 using detail::make_setup;
 using detail::pattern_class;
+using detail::pixel_weight;
+using detail::importance_extra_samples;
 using detail::PixelAo;
 using detail::smoothstep01;
 
@@ -36,6 +38,14 @@ constexpr int kHorizonSteps = 4;
 /// jitter (the transposed tile), so neighbouring pixels differ in both.
 constexpr int kBayer[kSsaoPatternClasses] = {0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5};
 constexpr int kBayerT[kSsaoPatternClasses] = {0, 12, 3, 15, 8, 4, 11, 7, 2, 14, 1, 13, 10, 6, 9, 5};
+
+/// The base-2 radical inverse (van der Corput) of k: its bits mirrored about the binary point.
+double radical_inverse(int k) {
+  double inv = 0.0, bit = 0.5;
+  for (unsigned u = static_cast<unsigned>(k); u != 0; u >>= 1, bit *= 0.5)
+    if (u & 1u) inv += bit;
+  return inv;
+}
 
 double fract(double v) {
   return v - std::floor(v);
@@ -49,14 +59,6 @@ inline int offset_px_fast(int centre, float offset, float radius_px) {
   const float v = offset * radius_px + 0.5f;
   const int t = static_cast<int>(v);
   return centre + t - (v < static_cast<float>(t) ? 1 : 0);
-}
-
-/// The weight of an evaluated pixel: Eq. 10-11 times the coverage weight.
-float pixel_weight(const FrameSetup& s, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
-                   float coverage) {
-  const float w = view_weight(p, n, s.d_min_m, s.d_max_m);
-  if (!(s.coverage_power > 0.0f)) return w;
-  return w * std::pow(std::min(std::max(coverage, 0.0f), 1.0f), s.coverage_power);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -124,37 +126,57 @@ PixelAo fast_point_ao(const FrameSetup& s, int x, int y, const Eigen::Vector3f& 
   const float r2eps = kAlchemyEpsilon * s.radius_m * s.radius_m;
   const float bias_m = E == AoEstimator::kPaper ? 0.0f : s.bias * p.z();
   float sum = 0.0f;
+  float distance_sum = 0.0f;  // vardis: sum of min(|v|, r_s) over the counted samples
   int counted = 0;
   const bool area = s.area_min_cos < 1.0f;
-  for (int k = 0; k < count; ++k) {
-    Eigen::Vector3f v;
-    float d2 = 0.0f;
-    std::size_t index;
-    if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2, index)) continue;
-    const float nv = n.dot(v) - bias_m;
-    ++counted;
-    if constexpr (E == AoEstimator::kAlchemy) {
-      if (!(nv > 0.0f)) continue;  // adds 0, no normal to read
-      float term = s.radius_m * nv / (d2 + r2eps);
-      if (area)
-        term *= area_factor(maps.vertices.data()[index], maps.normals.data()[index],
-                            s.area_min_cos);
-      sum += term;
-    } else {
-      const float d = std::sqrt(d2);
-      const float rho = smoothstep01(d, s.t_max_m);
-      if constexpr (E == AoEstimator::kPaper) {
-        sum += rho * (1.0f - std::max(nv / d, 0.0f));
+  const auto take = [&](int begin, int end) {
+    for (int k = begin; k < end; ++k) {
+      Eigen::Vector3f v;
+      float d2 = 0.0f;
+      std::size_t index;
+      if (!sample_vector(maps, x, y, offs[k], rx, ry, p, v, d2, index)) continue;
+      const float nv = n.dot(v) - bias_m;
+      ++counted;
+      if (s.vardis) distance_sum += std::min(std::sqrt(d2), s.radius_m);
+      if constexpr (E == AoEstimator::kAlchemy) {
+        if (!(nv > 0.0f)) continue;  // adds 0, no normal to read
+        float term = s.radius_m * nv / (d2 + r2eps);
+        if (area)
+          term *= area_factor(maps.vertices.data()[index], maps.normals.data()[index],
+                              s.area_min_cos);
+        sum += term;
       } else {
-        sum += std::max(nv / d, 0.0f) * (1.0f - rho);
+        const float d = std::sqrt(d2);
+        const float rho = smoothstep01(d, s.t_max_m);
+        if constexpr (E == AoEstimator::kPaper) {
+          sum += rho * (1.0f - std::max(nv / d, 0.0f));
+        } else {
+          sum += std::max(nv / d, 0.0f) * (1.0f - rho);
+        }
       }
     }
+  };
+  const auto result = [&](int taken) {
+    PixelAo r{1.0f, static_cast<float>(counted) / static_cast<float>(taken)};
+    if (s.vardis)
+      r.distance_weight = 1.0f - (distance_sum + static_cast<float>(taken - counted) * s.radius_m) /
+                                     (static_cast<float>(taken) * s.radius_m);
+    if (counted == 0) return r;
+    const float mean = sum / static_cast<float>(counted);
+    r.ao = std::min(std::max(E == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f), 1.0f);
+    return r;
+  };
+  if (s.importance_samples <= 0) {
+    take(0, count);
+    return result(count);
   }
-  const float coverage = static_cast<float>(counted) / static_cast<float>(count);
-  if (counted == 0) return {1.0f, coverage};
-  const float mean = sum / static_cast<float>(counted);
-  if constexpr (E == AoEstimator::kPaper) return {std::min(std::max(mean, 0.0f), 1.0f), coverage};
-  return {std::min(std::max(1.0f - mean, 0.0f), 1.0f), coverage};
+  const int first = std::min(s.importance_samples, count);
+  take(0, first);
+  const PixelAo initial = result(first);
+  const int extra =
+      importance_extra_samples(count - first, pixel_weight(s, p, n, initial), initial.ao);
+  take(first, first + extra);
+  return result(first + extra);
 }
 
 /// GTAO arc integral of one side with horizon angle `h` about projected-normal angle `n`.
@@ -270,6 +292,11 @@ PixelAo fast_heightfield_ao(const FrameSetup& s, int x, int y, const Eigen::Vect
   });
 }
 
+PixelAo statvo_kernel(const FrameSetup& s, int x, int y, const Eigen::Vector3f& p,
+                      const Eigen::Vector3f& n) {
+  return statvo_pixel_ao(*s.statvo, s, x, y, p, n);
+}
+
 using PixelFn = PixelAo (*)(const FrameSetup&, int, int, const Eigen::Vector3f&,
                             const Eigen::Vector3f&);
 
@@ -283,6 +310,8 @@ PixelFn fast_kernel(AoEstimator e) {
       return &fast_point_ao<AoEstimator::kAlchemy>;
     case AoEstimator::kHeightfield:
       return &fast_heightfield_ao;
+    case AoEstimator::kStatVo:
+      return &statvo_kernel;
     case AoEstimator::kHorizon:
       break;
   }
@@ -317,6 +346,16 @@ SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index)
   pat.offsets.resize(static_cast<std::size_t>(kSsaoPatternClasses) * pat.samples);
   pat.slice_dirs.resize(static_cast<std::size_t>(kSsaoPatternClasses) * pat.slices);
   const double golden_angle = kPi * (3.0 - std::sqrt(5.0));
+  // The k-th point sample's ring: k (the Vogel spiral), or with importance sampling the rank of
+  // k's base-2 radical inverse, so that the first samples of a pixel already span the disk.
+  std::vector<int> radial(static_cast<std::size_t>(pat.samples));
+  for (int k = 0; k < pat.samples; ++k) radial[k] = k;
+  if (config.importance_samples > 0) {
+    std::vector<int> order(radial);
+    std::sort(order.begin(), order.end(),
+              [](int a, int b) { return radical_inverse(a) < radical_inverse(b); });
+    for (int rank = 0; rank < pat.samples; ++rank) radial[order[rank]] = rank;
+  }
   for (int c = 0; c < kSsaoPatternClasses; ++c) {
     const double turn = kBayer[c] / 16.0 + frame_turn;
     const double jitter = fract(kBayerT[c] / 16.0 + frame_jitter);
@@ -335,7 +374,7 @@ SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index)
       }
     } else {
       for (int k = 0; k < pat.samples; ++k) {
-        const double r = std::sqrt((k + jitter) / pat.samples);
+        const double r = std::sqrt((radial[k] + jitter) / pat.samples);
         const double phi = k * golden_angle + 2.0 * kPi * turn;
         offs[k] = Eigen::Vector2d(r * std::cos(phi), r * std::sin(phi)).cast<float>();
       }
@@ -381,7 +420,11 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
                          workspace.smoothing_planes);
     in = &workspace.smoothed;
   }
-  const FrameSetup setup = make_setup(*in, pattern, config);
+  FrameSetup setup = make_setup(*in, pattern, config);
+  if (config.estimator == AoEstimator::kStatVo) {
+    build_statvo_tables(*in, config, workspace.statvo);
+    setup.statvo = &workspace.statvo;
+  }
   const PixelFn kernel = fast_kernel(config.estimator);
   const Eigen::Vector3f* verts = in->vertices.data();
   const Eigen::Vector3f* norms = in->normals.data();
@@ -398,7 +441,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
           if (!ssao_pixel_valid(p, n)) continue;
           const PixelAo r = kernel(setup, x, y, p, n);
           ao_row[x] = r.ao;
-          w_row[x] = pixel_weight(setup, p, n, r.coverage);
+          w_row[x] = pixel_weight(setup, p, n, r);
         }
       }
     });
@@ -430,7 +473,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
             const std::size_t idx = static_cast<std::size_t>(y) * w + x;
             if (ssao_pixel_valid(verts[idx], norms[idx])) ao.data()[idx] = value;
           }
-        weight.data()[eidx] = pixel_weight(setup, verts[eidx], ns, r.coverage);
+        weight.data()[eidx] = pixel_weight(setup, verts[eidx], ns, r);
       }
     }
   });

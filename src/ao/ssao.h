@@ -33,6 +33,10 @@
 ///               rho(d) of its visibility, the arc above the final horizon is open; divided by
 ///               the open integral as for horizon. Exact on a heightfield up to the sample
 ///               spacing; thin objects read as solid (halos).
+/// - statvo:     statistical volumetric obscurance over a box of half size r_s in four adaptive
+///               depth layers from summed-area tables (Hendrickx et al. 2015; statvo.h): no
+///               samples, the same cost whatever ao.samples; its coverage is the share of the
+///               box's pixels with a surface.
 /// n is the pixel's SSAO normal: with ao.normal_radius_px > 0, the normalised sum of the raycast
 /// normals within that many pixels whose vertices lie within ao.normal_max_distance_m of p (the
 /// raycast's nearest-voxel TSDF gradients are noisy by a few degrees on a fused noisy surface, and
@@ -51,6 +55,7 @@
 #include <Eigen/Core>
 
 #include "ao/ao_config.h"
+#include "ao/statvo.h"
 #include "core/image.h"
 #include "geometry/point_maps.h"
 
@@ -103,6 +108,7 @@ void compute_ssao(const PointMaps& maps, const AoConfig& config, std::uint64_t f
 struct SsaoWorkspace {
   PointMaps smoothed;
   std::vector<float> smoothing_planes;  ///< scratch of smooth_model_normals()
+  StatVoTables statvo;                  ///< statvo estimator: the frame's layered tables
 };
 
 /// compute_ssao() with the caller's buffers (the overload above makes its own each call).

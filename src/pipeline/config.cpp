@@ -292,6 +292,20 @@ void validate_config(const Config& c) {
     throw usage_error("configuration: preprocess.min_depth_m must be below preprocess.max_depth_m");
   if (c.ao.d_min_m >= c.ao.d_max_m)
     throw usage_error("configuration: ao.d_min_m must be below ao.d_max_m");
+  const bool point_estimator = c.ao.estimator == AoEstimator::kPaper ||
+                               c.ao.estimator == AoEstimator::kObscurance ||
+                               c.ao.estimator == AoEstimator::kAlchemy;
+  if (!point_estimator && c.ao.view_weight == AoViewWeight::kVardis)
+    throw usage_error(
+        "configuration: ao.view_weight vardis needs a point estimator (ao.estimator paper, "
+        "obscurance or alchemy)");
+  if (!point_estimator && c.ao.importance_samples > 0)
+    throw usage_error(
+        "configuration: ao.importance_samples needs a point estimator (ao.estimator paper, "
+        "obscurance or alchemy)");
+  if (c.ao.importance_samples >= c.ao.samples)
+    throw usage_error("configuration: ao.importance_samples must be below ao.samples (" +
+                      std::to_string(c.ao.samples) + "), or 0");
   if (c.fusion.truncation_m < c.fusion.voxel_size_m)
     throw usage_error("configuration: fusion.truncation_m must be at least fusion.voxel_size_m");
 }

@@ -27,7 +27,7 @@ using test::small_camera;
 
 constexpr AoEstimator kAllEstimators[] = {AoEstimator::kPaper, AoEstimator::kObscurance,
                                           AoEstimator::kAlchemy, AoEstimator::kHorizon,
-                                          AoEstimator::kHeightfield};
+                                          AoEstimator::kHeightfield, AoEstimator::kStatVo};
 
 AoConfig config_for(AoEstimator e, int stride) {
   AoConfig c;
@@ -93,7 +93,8 @@ TEST(Ssao, OpenWallIsFullyOpenExceptForThePaperEstimator) {
   const PointMaps maps = open_wall();
   Image<float> ao, w;
   // Every sample lies exactly in the tangent plane: no occlusion (exact for the point forms).
-  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy}) {
+  // statvo: every layer's mean lies in the plane, below the bias.
+  for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kStatVo}) {
     compute_ssao(maps, config_for(e, 1), 0, ao, w);
     for (int y = 0; y < ao.height(); ++y)
       for (int x = 0; x < ao.width(); ++x) ASSERT_EQ(ao(x, y), 1.0f) << x << " " << y;
@@ -120,7 +121,7 @@ TEST(Ssao, InnerEdgeIsDarkerNearTheEdgeAndOpenBeyondTMax) {
   const PointMaps maps = floor_wall_edge(&T);
   Image<float> ao, w;
   for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon,
-                        AoEstimator::kHeightfield})
+                        AoEstimator::kHeightfield, AoEstimator::kStatVo})
     for (double bias : {0.0, AoConfig{}.bias}) {
       AoConfig config = config_for(e, 1);
       config.bias = bias;
@@ -194,6 +195,49 @@ TEST(Ssao, CoverageWeightLowersPixelsWhoseDiskLeavesTheImage) {
   // The fast path and the reference agree on the weights.
   Image<float> ao_ref, w_ref;
   compute_ssao_reference(maps, c, 0, ao_ref, w_ref);
+  EXPECT_EQ(w, w_ref);
+}
+
+TEST(Ssao, StatVoIsTheMeanHeightOfTheBoxOverItsHeight) {
+  // A 41 x 41 map of the plane z = 1 m facing the camera (normal (0, 0, -1)) with columns 25-30
+  // raised 5 cm towards the camera; fx = fy = 100 px, r_s = 0.1 m: the box of a pixel at z = 1 is
+  // 21 x 21 pixels. Every layer's mean height lies within [0, r_s], where psi is linear, so however
+  // the layers split the box, the obscurance is sum(heights) / (r_s * pixels in the box).
+  PointMaps maps;
+  maps.intrinsics.width = maps.intrinsics.height = 41;
+  maps.intrinsics.fx = maps.intrinsics.fy = 100.0;
+  maps.intrinsics.cx = maps.intrinsics.cy = 20.0;
+  maps.vertices.resize(41, 41, Eigen::Vector3f::Zero());
+  maps.normals.resize(41, 41, Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+  const float raised = 0.05f;
+  for (int y = 0; y < 41; ++y)
+    for (int x = 0; x < 41; ++x)
+      maps.vertices(x, y) = {0.01f * (x - 20), 0.01f * (y - 20),
+                             x >= 25 && x <= 30 ? 1.0f - raised : 1.0f};
+  AoConfig c = config_for(AoEstimator::kStatVo, 1);
+  c.radius_m = 0.1;
+  c.bias = 0.0;
+  c.normal_radius_px = 0;
+  c.coverage_power = 1.0;
+  Image<float> ao, w;
+  compute_ssao(maps, c, 0, ao, w);
+  // Centre (20, 20): the box holds columns 10-30, six of them raised: 6 x 21 of 441 pixels.
+  EXPECT_NEAR(ao(20, 20), 1.0f - raised / 0.1f * (6.0f * 21.0f) / 441.0f, 1e-6f);
+  // Far from the raised columns the box is flat: open.
+  EXPECT_EQ(ao(3, 20), 1.0f);
+  // On the raised columns the tangent plane is the raised one: the plane beside lies below it.
+  EXPECT_EQ(ao(27, 20), 1.0f);
+  // The coverage weight: at (3, 3) the box keeps columns and rows 0-13 of its 21 x 21.
+  const float full = view_weight(maps.vertices(20, 20), maps.normals(20, 20),
+                                 static_cast<float>(c.d_min_m), static_cast<float>(c.d_max_m));
+  EXPECT_NEAR(w(20, 20), full, 1e-6f);
+  EXPECT_NEAR(w(3, 3) / view_weight(maps.vertices(3, 3), maps.normals(3, 3),
+                                    static_cast<float>(c.d_min_m), static_cast<float>(c.d_max_m)),
+              14.0f * 14.0f / 441.0f, 1e-6f);
+  // The same answers from the plain reference.
+  Image<float> ao_ref, w_ref;
+  compute_ssao_reference(maps, c, 0, ao_ref, w_ref);
+  EXPECT_NEAR(ao_ref(20, 20), ao(20, 20), 1e-6f);
   EXPECT_EQ(w, w_ref);
 }
 
@@ -366,6 +410,10 @@ TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
   for (AoEstimator e : kAllEstimators)
     for (int stride : {1, 2})
       for (std::uint64_t frame : {0u, 5u}) {
+        // statvo has no pattern: the frame only rotates the stride's pixel (its brute-force
+        // reference is slow under the sanitizers).
+        if (e == AoEstimator::kStatVo && frame != static_cast<std::uint64_t>(stride - 1) * 5u)
+          continue;
         const AoConfig c = config_for(e, stride);
         Image<float> ao, w, ao_ref, w_ref;
         compute_ssao(maps, c, frame, ao, w);
@@ -376,6 +424,75 @@ TEST(Ssao, FastMatchesReferenceForEveryEstimatorAndStride) {
           max_diff = std::max(max_diff, std::abs(ao.data()[i] - ao_ref.data()[i]));
         EXPECT_LE(max_diff, 1e-5f) << static_cast<int>(e) << " stride " << stride;
       }
+}
+
+TEST(Ssao, VardisWeightAndImportanceSamplingMatchTheReference) {
+  const PointMaps maps = floor_wall_edge();
+  for (AoEstimator e : {AoEstimator::kPaper, AoEstimator::kObscurance, AoEstimator::kAlchemy})
+    for (int stride : {1, 2})
+      for (int variant = 0; variant < 3; ++variant) {
+        AoConfig c = config_for(e, stride);
+        if (variant != 1) c.view_weight = AoViewWeight::kVardis;
+        if (variant != 0) c.importance_samples = 5;
+        Image<float> ao, w, ao_ref, w_ref;
+        compute_ssao(maps, c, 3, ao, w);
+        compute_ssao_reference(maps, c, 3, ao_ref, w_ref);
+        ASSERT_EQ(w, w_ref) << static_cast<int>(e) << " variant " << variant;
+        float max_diff = 0.0f;
+        for (std::size_t i = 0; i < ao.size(); ++i)
+          max_diff = std::max(max_diff, std::abs(ao.data()[i] - ao_ref.data()[i]));
+        EXPECT_LE(max_diff, 1e-5f) << static_cast<int>(e) << " variant " << variant;
+      }
+}
+
+TEST(Ssao, VardisWeightBlendsTheSamplesDistanceAndTheNormal) {
+  // A single valid pixel facing the camera: no sample is counted, each counts r_s away, so the
+  // distance weight is 0 and the weight is (1 - b) w_n = 1 - b (w_n = 1 within 1e-5).
+  PointMaps lone = open_wall();
+  for (int y = 0; y < lone.vertices.height(); ++y)
+    for (int x = 0; x < lone.vertices.width(); ++x)
+      if (x != 160 || y != 120) lone.vertices(x, y) = lone.normals(x, y) = Eigen::Vector3f::Zero();
+  AoConfig c = config_for(AoEstimator::kAlchemy, 1);
+  c.view_weight = AoViewWeight::kVardis;
+  c.coverage_power = 0.0;
+  Image<float> ao, w;
+  compute_ssao(lone, c, 0, ao, w);
+  EXPECT_EQ(ao(160, 120), 1.0f);
+  EXPECT_NEAR(w(160, 120), 1.0f - static_cast<float>(c.vardis_b), 1e-6f);
+  // On the whole wall every sample lies within r_s: the distance weight is 1 - (mean sample
+  // distance) / r_s, strictly between 0 and 1, and b = 0 leaves w_n = 1 alone.
+  const PointMaps wall = open_wall();
+  compute_ssao(wall, c, 0, ao, w);
+  EXPECT_GT(w(160, 120), 1.0f - static_cast<float>(c.vardis_b) + 0.1f);
+  EXPECT_LT(w(160, 120), 1.0f - 0.1f);
+  c.vardis_b = 0.0;
+  compute_ssao(wall, c, 0, ao, w);
+  EXPECT_NEAR(w(160, 120), 1.0f, 1e-5f);  // the pixel's ray is half a pixel off the normal
+}
+
+TEST(Ssao, ImportanceSamplingKeepsTheAoOfAllTheSamples) {
+  // Fewer samples where a pixel is open or weighs little, the same AO on average: exact on the
+  // open wall, close to the full count's at the inner edge.
+  AoConfig c = config_for(AoEstimator::kAlchemy, 1);
+  AoConfig is = c;
+  is.importance_samples = 4;
+  Image<float> ao, w, ao_is, w_is;
+  compute_ssao(open_wall(), is, 0, ao_is, w_is);
+  for (std::size_t i = 0; i < ao_is.size(); ++i) ASSERT_EQ(ao_is.data()[i], 1.0f);
+  const PointMaps edge = floor_wall_edge();
+  double diff = 0.0, mean = 0.0, mean_is = 0.0;
+  for (std::uint64_t frame = 0; frame < 4; ++frame) {
+    compute_ssao(edge, c, frame, ao, w);
+    compute_ssao(edge, is, frame, ao_is, w_is);
+    for (std::size_t i = 0; i < ao.size(); ++i) {
+      diff += std::abs(ao.data()[i] - ao_is.data()[i]);
+      mean += ao.data()[i];
+      mean_is += ao_is.data()[i];
+    }
+  }
+  const double n = 4.0 * static_cast<double>(ao.size());
+  EXPECT_LT(diff / n, 0.02);
+  EXPECT_NEAR(mean_is / n, mean / n, 0.01);
 }
 
 TEST(Ssao, BitIdenticalForAnyThreadCount) {

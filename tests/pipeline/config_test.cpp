@@ -71,6 +71,18 @@ TEST(Config, BadKeysAndValuesAreUsageErrors) {
 TEST(Config, CrossFieldValidation) {
   EXPECT_EQ(code_of([] { load_config("", {"ao.d_min_m=3", "ao.d_max_m=2"}); }), ExitCode::kUsage);
   EXPECT_EQ(code_of([] { load_config("", {"preprocess.min_depth_m=5"}); }), ExitCode::kUsage);
+  // Vardis et al.'s weight and importance sampling need a point estimator; importance sampling
+  // fewer initial samples than ao.samples.
+  EXPECT_EQ(code_of([] { load_config("", {"ao.view_weight=vardis", "ao.estimator=horizon"}); }),
+            ExitCode::kUsage);
+  EXPECT_EQ(code_of([] { load_config("", {"ao.importance_samples=4", "ao.estimator=statvo"}); }),
+            ExitCode::kUsage);
+  EXPECT_EQ(code_of([] { load_config("", {"ao.importance_samples=16"}); }), ExitCode::kUsage);
+  EXPECT_EQ(code_of([] {
+              load_config("", {"ao.view_weight=vardis", "ao.importance_samples=4",
+                               "ao.estimator=obscurance"});
+            }),
+            ExitCode::kOk);
 }
 
 TEST(Config, YamlFileNestedAndDotted) {

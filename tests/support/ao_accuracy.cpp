@@ -140,6 +140,8 @@ const char* estimator_name(AoEstimator e) {
       return "horizon";
     case AoEstimator::kHeightfield:
       return "heightfield";
+    case AoEstimator::kStatVo:
+      return "statvo";
   }
   return "?";
 }
@@ -150,7 +152,7 @@ const char* integration_name(AoIntegration m) {
 std::vector<AoConfig> all_ao_configs(const AoConfig& base) {
   std::vector<AoConfig> out;
   for (AoEstimator e : {AoEstimator::kPaper, AoEstimator::kObscurance, AoEstimator::kAlchemy,
-                        AoEstimator::kHorizon, AoEstimator::kHeightfield})
+                        AoEstimator::kHorizon, AoEstimator::kHeightfield, AoEstimator::kStatVo})
     for (AoIntegration m : {AoIntegration::kMvao, AoIntegration::kMean, AoIntegration::kLast}) {
       AoConfig c = base;
       c.estimator = e;

@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <optional>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -122,19 +125,35 @@ float slice_estimators_ao(const Setup& s, Sampler& sampler, const Eigen::Vector3
   return std::clamp(visibility / open, 0.0f, 1.0f);
 }
 
-/// Paper, obscurance and alchemy estimators: the mean over the counted point samples.
-float point_estimators_ao(const Setup& s, Sampler& sampler, const Eigen::Vector3f& n) {
+/// The plain pixel weight: the paper's w_d * w_n or Vardis et al.'s b * w_d + (1 - b) * w_n with
+/// the distance weight of `r`, times coverage^power.
+float reference_weight(const Setup& s, const Eigen::Vector3f& p, const Eigen::Vector3f& n,
+                       const PixelAo& r) {
+  float w = view_weight(p, n, s.d_min_m, s.d_max_m);
+  if (s.vardis) {
+    const float w_n = std::max(-n.dot(p) / p.norm(), 0.0f);
+    w = s.vardis_b * r.distance_weight + (1.0f - s.vardis_b) * w_n;
+  }
+  if (s.coverage_power > 0.0f) w *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), s.coverage_power);
+  return w;
+}
+
+/// Paper, obscurance and alchemy estimators: the mean over the counted point samples of the
+/// samples taken (all N, or with importance sampling the first n and then as many more as Eq. 6
+/// of Vardis et al. gives), with the coverage and the distance weight of the samples taken.
+PixelAo point_estimators_ao(const Setup& s, Sampler& sampler, const Eigen::Vector3f& n) {
   const SsaoPattern& pat = *s.pattern;
   const PointMaps& maps = *s.maps;
   const Eigen::Vector3f& p = sampler.p;
   const int cls = pattern_class(sampler.x, sampler.y);
-  float sum = 0.0f;
-  for (int k = 0; k < pat.samples; ++k) {
+  float sum = 0.0f, distances = 0.0f;
+  auto take = [&](int k) {
     Eigen::Vector3f q;
     const Eigen::Vector2f& o = pat.offsets[cls * pat.samples + k];
-    if (!sampler.fetch(o, q)) continue;
+    if (!sampler.fetch(o, q)) return;
     const Eigen::Vector3f v = q - p;
     const float dist = v.norm();
+    distances += std::min(dist, s.radius_m);
     const float rho = smoothstep01(dist, s.t_max_m);
     const float height = n.dot(v) - s.bias * p.z();  // above the tangent plane, less the bias
     const float c = height / dist;
@@ -159,13 +178,118 @@ float point_estimators_ao(const Setup& s, Sampler& sampler, const Eigen::Vector3
       }
       case AoEstimator::kHorizon:
       case AoEstimator::kHeightfield:
+      case AoEstimator::kStatVo:
         break;
     }
+  };
+  auto result = [&](int taken) {
+    PixelAo r{1.0f, static_cast<float>(sampler.counted) / static_cast<float>(taken)};
+    if (s.vardis)
+      r.distance_weight =
+          1.0f - (distances + static_cast<float>(taken - sampler.counted) * s.radius_m) /
+                     (static_cast<float>(taken) * s.radius_m);
+    if (sampler.counted > 0) {
+      const float mean = sum / static_cast<float>(sampler.counted);
+      r.ao = std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f);
+    }
+    return r;
+  };
+  int taken = s.importance_samples > 0 ? std::min(s.importance_samples, pat.samples) : pat.samples;
+  for (int k = 0; k < taken; ++k) take(k);
+  if (taken < pat.samples) {
+    const PixelAo initial = result(taken);
+    const int remaining = pat.samples - taken;
+    const float share = std::clamp(reference_weight(s, p, n, initial), 0.0f, 1.0f) *
+                        (1.0f + (1.0f - initial.ao)) * 0.5f;
+    const int extra =
+        std::min(remaining, static_cast<int>(std::floor(remaining * share + 0.5f)));
+    for (int k = taken; k < taken + extra; ++k) take(k);
+    taken += extra;
   }
-  if (sampler.counted == 0) return 1.0f;
-  const float mean = sum / static_cast<float>(sampler.counted);
-  return std::clamp(pat.estimator == AoEstimator::kPaper ? mean : 1.0f - mean, 0.0f, 1.0f);
+  return result(taken);
 }
+
+/// statvo (ao/statvo.h) from its definition, by direct sums over each pixel's box: the pixels'
+/// layers (bit 1: the far half of all valid pixels, bit 0: the far half of the pixel's first
+/// half; -1: invalid), then the pixel's AO and coverage from the four layers' counts and mean
+/// positions in its box.
+class StatVoReference {
+ public:
+  StatVoReference(const Setup& s, const std::function<bool(int, int)>& valid)
+      : s_(s), maps_(*s.maps), w_(maps_.vertices.width()), h_(maps_.vertices.height()) {
+    std::vector<int> first(static_cast<std::size_t>(w_) * h_, -1);
+    for (int y = 0; y < h_; ++y)
+      for (int x = 0; x < w_; ++x)
+        if (valid(x, y)) first[index(x, y)] = 0;
+    code_ = first;
+    for (int y = 0; y < h_; ++y)
+      for (int x = 0; x < w_; ++x)
+        if (first[index(x, y)] >= 0 && far(first, x, y, [](int) { return true; }))
+          code_[index(x, y)] = 2;
+    const std::vector<int> halves = code_;
+    for (int y = 0; y < h_; ++y)
+      for (int x = 0; x < w_; ++x) {
+        const int half = halves[index(x, y)];
+        if (half >= 0 && far(halves, x, y, [half](int c) { return c == half; }))
+          ++code_[index(x, y)];
+      }
+  }
+
+  PixelAo pixel(int x, int y) const {
+    const Eigen::Vector3f p = maps_.vertices(x, y);
+    const Eigen::Vector3f n = maps_.normals(x, y);
+    const int hx = detail::statvo_half_px(s_.fx, s_.radius_m, p.z());
+    const int hy = detail::statvo_half_px(s_.fy, s_.radius_m, p.z());
+    Eigen::Vector3d sum[4] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                              Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    double count[4] = {0, 0, 0, 0};
+    for (int v = y - hy; v <= y + hy; ++v)
+      for (int u = x - hx; u <= x + hx; ++u) {
+        if (!maps_.vertices.contains(u, v) || code_[index(u, v)] < 0) continue;
+        sum[code_[index(u, v)]] += maps_.vertices(u, v).cast<double>();
+        count[code_[index(u, v)]] += 1.0;
+      }
+    double occluded = 0.0, counted = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      if (count[i] == 0.0) continue;
+      const double height = (sum[i] / count[i] - p.cast<double>()).dot(n.cast<double>()) -
+                            static_cast<double>(s_.bias) * p.z();
+      occluded += detail::statvo_psi(static_cast<float>(height / s_.radius_m),
+                                     1.0f + s_.t_max_m / s_.radius_m) *
+                  count[i];
+      counted += count[i];
+    }
+    const double area = static_cast<double>(2 * hx + 1) * (2 * hy + 1);
+    return {static_cast<float>(1.0 - occluded / counted), static_cast<float>(counted / area)};
+  }
+
+ private:
+  std::size_t index(int x, int y) const { return static_cast<std::size_t>(y) * w_ + x; }
+
+  /// Whether pixel (x, y) lies kStatVoTieM or more behind the mean depth of the pixels of its box
+  /// whose code passes `member`.
+  template <class Member>
+  bool far(const std::vector<int>& codes, int x, int y, Member member) const {
+    const float z = maps_.vertices(x, y).z();
+    const int hx = detail::statvo_half_px(s_.fx, s_.radius_m, z);
+    const int hy = detail::statvo_half_px(s_.fy, s_.radius_m, z);
+    double sum_z = 0.0, count = 0.0;
+    for (int v = y - hy; v <= y + hy; ++v)
+      for (int u = x - hx; u <= x + hx; ++u) {
+        if (!maps_.vertices.contains(u, v)) continue;
+        const int c = codes[index(u, v)];
+        if (c < 0 || !member(c)) continue;
+        sum_z += maps_.vertices(u, v).z();
+        count += 1.0;
+      }
+    return static_cast<double>(z) - sum_z / count >= detail::kStatVoTieM;
+  }
+
+  const Setup& s_;
+  const PointMaps& maps_;
+  int w_, h_;
+  std::vector<int> code_;
+};
 
 /// The SSAO of pixel (x, y) and its coverage.
 PixelAo reference_pixel_ao(const Setup& s, int x, int y) {
@@ -180,8 +304,8 @@ PixelAo reference_pixel_ao(const Setup& s, int x, int y) {
                   std::min(s.fy * disk_m / p.z(), kMaxRadiusPx)};
   const bool slices =
       pat.estimator == AoEstimator::kHorizon || pat.estimator == AoEstimator::kHeightfield;
-  const float ao =
-      slices ? slice_estimators_ao(s, sampler, n) : point_estimators_ao(s, sampler, n);
+  if (!slices) return point_estimators_ao(s, sampler, n);
+  const float ao = slice_estimators_ao(s, sampler, n);
   return {ao, static_cast<float>(sampler.counted) / static_cast<float>(pat.samples)};
 }
 
@@ -206,6 +330,8 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
     return maps_in.vertices.contains(x, y) &&
            ssao_pixel_valid(maps_in.vertices(x, y), maps_in.normals(x, y));
   };
+  std::optional<StatVoReference> statvo;
+  if (config.estimator == AoEstimator::kStatVo) statvo.emplace(setup, valid);
   const int stride = config.ssao_stride_px <= 1 ? 1 : 2;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
@@ -219,15 +345,10 @@ void compute_ssao_reference(const PointMaps& maps, const AoConfig& config,
             ex = x - x % 2 + o[0], ey = y - y % 2 + o[1];
         }
       }
-      const PixelAo r = reference_pixel_ao(setup, ex, ey);
+      const PixelAo r = statvo ? statvo->pixel(ex, ey) : reference_pixel_ao(setup, ex, ey);
       ao(x, y) = r.ao;
-      if (ex == x && ey == y) {
-        float w_px = view_weight(maps_in.vertices(x, y), maps_in.normals(x, y), setup.d_min_m,
-                                 setup.d_max_m);
-        if (setup.coverage_power > 0.0f)
-          w_px *= std::pow(std::clamp(r.coverage, 0.0f, 1.0f), setup.coverage_power);
-        weight(x, y) = w_px;
-      }
+      if (ex == x && ey == y)
+        weight(x, y) = reference_weight(setup, maps_in.vertices(x, y), maps_in.normals(x, y), r);
     }
   }
 }

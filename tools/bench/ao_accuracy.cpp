@@ -1,11 +1,13 @@
 /// @file ao_accuracy.cpp
 /// @brief aoscan-ao-accuracy: SSAO estimators x MVAO integration modes against the ray-traced
 /// Eq. 1 reference on the exact room and corner scenes (tables of Pearson r, bias, RMSE), a
-/// sample-count / stride sweep on the corner, and the per-frame time of SSAO + grid update. The
-/// harness is tests/support/ao_accuracy.h, whose small configuration tests/ao asserts on.
+/// sample-count / stride sweep on the corner, and the per-frame time of SSAO + grid update; with
+/// --seed-methods the seed papers' alternatives to the defaults (Vardis et al. 2013's view weight
+/// and importance sampling, Hendrickx et al. 2015's statvo) side by side. The harness is tests/support/ao_accuracy.h, whose small configuration tests/ao asserts on.
 #include <chrono>
 #include <cstdio>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -49,6 +51,48 @@ void measure_scenes(const AoEvalSetup& size) {
   }
 }
 
+/// The seed papers' alternatives to the defaults, one at a time (each is its own grid): Vardis et
+/// al. 2013's view weight and importance sampling, Hendrickx et al. 2015's statvo estimator.
+std::vector<std::pair<std::string, AoConfig>> seed_variants() {
+  std::vector<std::pair<std::string, AoConfig>> v;
+  v.emplace_back("defaults (alchemy, paper weight)", AoConfig{});
+  for (double b : {0.85, 1.0}) {
+    AoConfig c;
+    c.view_weight = AoViewWeight::kVardis;
+    c.vardis_b = b;
+    v.emplace_back("view_weight vardis, b " + std::to_string(b).substr(0, 4), c);
+  }
+  for (int n : {4, 8}) {
+    AoConfig c;
+    c.importance_samples = n;
+    v.emplace_back("importance_samples " + std::to_string(n), c);
+  }
+  AoConfig both;
+  both.view_weight = AoViewWeight::kVardis;
+  both.importance_samples = 4;
+  v.emplace_back("vardis b 0.85 + importance_samples 4", both);
+  AoConfig statvo;
+  statvo.estimator = AoEstimator::kStatVo;
+  v.emplace_back("estimator statvo", statvo);
+  return v;
+}
+
+void measure_seed_methods(const AoEvalSetup& size) {
+  for (const char* scene : {"room", "corner"}) {
+    AoEvalSetup setup = size;
+    setup.scene = scene;
+    std::printf("seed methods, %s %dx%d, %d frames (mvao r, bias, rmse, r occluded)\n", scene,
+                setup.width, setup.height, setup.frames);
+    for (const auto& [name, config] : seed_variants()) {
+      const auto scores = test::measure_ao_accuracy(setup, {config});
+      const test::AoScore& s = scores.begin()->second;
+      std::printf("  %-40s r %.3f  bias %+.3f  rmse %.3f  r_occ %.3f\n", name.c_str(), s.r, s.bias,
+                  s.rmse, s.r_occluded);
+      std::fflush(stdout);
+    }
+  }
+}
+
 /// Per-frame time of SSAO + grid update on one exact corner frame of the given size.
 void time_frames(int width, int height) {
   const AnalyticScene scene = AnalyticScene::make("corner");
@@ -58,7 +102,7 @@ void time_frames(int width, int height) {
   const Pose T = synth_camera_pose("corner", SynthTrajectory::kOrbit, 1, 3.0);
   const PointMaps maps = test::render_exact(scene, params.intrinsics(), T);
   for (AoEstimator e : {AoEstimator::kObscurance, AoEstimator::kAlchemy, AoEstimator::kHorizon,
-                        AoEstimator::kHeightfield})
+                        AoEstimator::kHeightfield, AoEstimator::kStatVo})
     for (int stride : {1, 2})
       for (int samples : {16, 32}) {
         AoConfig c;
@@ -81,6 +125,16 @@ void time_frames(int width, int height) {
         std::printf("timing %-10s stride %d samples %2d: ssao %.2f ms, grid %.2f ms\n",
                     test::estimator_name(e), stride, samples, ssao_ms / reps, grid_ms / reps);
       }
+  for (const auto& [name, c] : seed_variants()) {
+    Image<float> ao, w;
+    const int reps = 40;
+    compute_ssao(maps, c, 0, ao, w);  // warm
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < reps; ++i) compute_ssao(maps, c, i, ao, w);
+    const auto t1 = std::chrono::steady_clock::now();
+    std::printf("timing %-40s ssao %.2f ms\n", name.c_str(),
+                std::chrono::duration<double, std::milli>(t1 - t0).count() / reps);
+  }
 }
 
 int run(int argc, char** argv) {
@@ -91,6 +145,7 @@ int run(int argc, char** argv) {
   setup.frames = 96;
   setup.eval_step_px = 24;
   bool no_timing = false;
+  bool seed_only = false;
   app.add_option("--width", setup.width, "image width (pixels)")
       ->capture_default_str()
       ->check(CLI::Range(16, 4096));
@@ -104,9 +159,15 @@ int run(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
   app.add_flag("--no-timing", no_timing, "skip the per-frame timing");
+  app.add_flag("--seed-methods", seed_only,
+               "only the seed papers' alternatives (Vardis et al. weights and importance "
+               "sampling, statvo) against the defaults");
   CLI11_PARSE(app, argc, argv);
   try {
-    measure_scenes(setup);
+    if (seed_only)
+      measure_seed_methods(setup);
+    else
+      measure_scenes(setup);
     if (!no_timing) time_frames(setup.width, setup.height);
     return 0;
   } catch (const Error& e) {
