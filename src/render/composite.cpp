@@ -43,6 +43,23 @@ float diffuse(const Eigen::Vector3f& n, const Eigen::Vector3f& to_light, float a
   return ambient + (1.0f - ambient) * lambert;
 }
 
+/// The orbit camera's light in GL eye coordinates (y up, z backwards): the camera-frame light
+/// flipped.
+Eigen::Vector3f light_in_eye(const ViewStyle& style) {
+  return {style.to_light_camera.x(), -style.to_light_camera.y(), -style.to_light_camera.z()};
+}
+
+/// The orbit view's grey of mesh vertex `i`: its AO x the diffuse term of its normal seen from
+/// the eye (no diffuse term without a normal).
+float orbit_shade(const TriangleMesh& mesh, std::size_t i, const Eigen::Matrix3f& eye_R_world,
+                  const Eigen::Vector3f& to_light_eye, float ambient) {
+  float shade = vertex_ao(mesh, i);
+  const Eigen::Vector3f n_world = vertex_normal(mesh, i);
+  if (!n_world.isZero(0.0f))
+    shade *= diffuse((eye_R_world * n_world).normalized(), to_light_eye, ambient);
+  return shade;
+}
+
 }  // namespace
 
 Eigen::Vector3f vertex_normal(const TriangleMesh& mesh, std::size_t i) {
@@ -154,7 +171,7 @@ OrbitCamera fit_orbit(const TriangleMesh& mesh) {
 }
 
 Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
-                                      Eigen::Matrix4f* view) {
+                                      Eigen::Matrix4f* view, Eigen::Matrix4f* projection) {
   const float pitch = std::clamp(camera.pitch_rad, -kOrbitMaxPitchRad, kOrbitMaxPitchRad);
   const glm::vec3 forward(std::sin(camera.yaw_rad) * std::cos(pitch), std::sin(pitch),
                           std::cos(camera.yaw_rad) * std::cos(pitch));
@@ -166,6 +183,7 @@ Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
                                                    0.01f * distance, 100.0f * distance);
   const glm::mat4 clip_from_world = clip_from_eye * eye_from_world;
   if (view) *view = Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(eye_from_world));
+  if (projection) *projection = Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(clip_from_eye));
   return Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(clip_from_world));
 }
 
@@ -178,11 +196,8 @@ void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<
   Eigen::Matrix4f eye_from_world;
   const Eigen::Matrix4f clip_from_world = orbit_clip_from_world(
       camera, static_cast<float>(width) / static_cast<float>(height), &eye_from_world);
-  // The light in GL eye coordinates (y up, z backwards) is the camera-frame light flipped.
-  const Eigen::Vector3f to_light_eye(style.to_light_camera.x(), -style.to_light_camera.y(),
-                                     -style.to_light_camera.z());
+  const Eigen::Vector3f to_light_eye = light_in_eye(style);
   const Eigen::Matrix3f eye_R_world = eye_from_world.topLeftCorner<3, 3>();
-  const bool has_normals = !mesh.normals.empty();
   const float half = 0.5f * style.point_size_px;
   thread_local std::vector<float> depth;
   depth.assign(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::infinity());
@@ -194,11 +209,7 @@ void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<
     const float xw = (clip.x() / w * 0.5f + 0.5f) * static_cast<float>(width);
     const float yw = (clip.y() / w * 0.5f + 0.5f) * static_cast<float>(height);
     const float zw = clip.z() / w * 0.5f + 0.5f;
-    float shade = vertex_ao(mesh, i);
-    const Eigen::Vector3f n_world = has_normals ? vertex_normal(mesh, i) : Eigen::Vector3f::Zero();
-    if (!n_world.isZero(0.0f))
-      shade *= diffuse((eye_R_world * n_world).normalized(), to_light_eye, style.ambient);
-    const Rgb8 colour = grey(shade);
+    const Rgb8 colour = grey(orbit_shade(mesh, i, eye_R_world, to_light_eye, style.ambient));
     // Pixels whose centres (x + 0.5, y + 0.5) lie in [xw - half, xw + half) (GL point rule).
     const int x0 = std::max(0, static_cast<int>(std::ceil(xw - half - 0.5f)));
     const int x1 = std::min(width - 1, static_cast<int>(std::ceil(xw + half - 0.5f)) - 1);

@@ -64,9 +64,10 @@ OrbitCamera fit_orbit(const TriangleMesh& mesh);
 
 /// Column-major 4x4 clip-from-world matrix of `camera` for an image of `aspect` = width / height
 /// (OpenGL conventions: eye looks down -z, y up, depth in [-1, 1]; near and far planes at 0.01 and
-/// 100 times the distance); `view` receives eye-from-world.
+/// 100 times the distance); `view` receives eye-from-world, `projection` clip-from-eye.
 Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
-                                      Eigen::Matrix4f* view = nullptr);
+                                      Eigen::Matrix4f* view = nullptr,
+                                      Eigen::Matrix4f* projection = nullptr);
 
 /// Orbit-view inputs of mesh vertex `i`: its AO (quality clamped to [0, 1]; 1 when the mesh has no
 /// quality or it is NaN) and its normal (zero when absent or not finite: no diffuse term).
