@@ -181,16 +181,16 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   const SessionResult r = run_session(*source, options, stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_EQ(r.pipeline.counters.frames_processed, 8u);
-  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 8 views.
+  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 9 views.
   std::set<std::string> names;
   for (const auto& e : fs::directory_iterator(snaps)) names.insert(e.path().filename().string());
   std::set<std::string> expected;
   for (const char* view : {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth",
-                           "orbit"})
+                           "orbit", "splats"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);
-  EXPECT_EQ(r.session.snapshot_files, 24u);
+  EXPECT_EQ(r.session.snapshot_files, 27u);
   for (const std::string& name : expected) {
     const auto [w, h] = png_size(snaps / name);
     EXPECT_EQ(w, 160) << name;
