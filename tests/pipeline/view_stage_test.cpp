@@ -402,6 +402,18 @@ TEST(ViewStage, AConsumerOfSomeViewsGetsOnlyWhatTheyNeed) {
   EXPECT_NE(feed()->surface, nullptr);
   view.set_views({View::kColour});
   EXPECT_EQ(colour_needed.back(), true);
+  // The splats view draws the same cloud.
+  ViewStage splats(options);
+  const auto splats_feed = [&splats] {
+    FrameWork frame;
+    frame.view_products = true;
+    EXPECT_TRUE(splats.process(frame).is_ok());
+    return splats.take_latest();
+  };
+  splats.set_views({View::kShaded});
+  EXPECT_EQ(splats_feed()->surface, nullptr);
+  splats.set_views({View::kSplats});
+  EXPECT_NE(splats_feed()->surface, nullptr);
 
   // With a window or snapshots every view is made, whatever set_views() says.
   ViewStageOptions all = window_options();
