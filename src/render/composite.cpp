@@ -43,12 +43,6 @@ float diffuse(const Eigen::Vector3f& n, const Eigen::Vector3f& to_light, float a
   return ambient + (1.0f - ambient) * lambert;
 }
 
-/// The orbit camera's light in GL eye coordinates (y up, z backwards): the camera-frame light
-/// flipped.
-Eigen::Vector3f light_in_eye(const ViewStyle& style) {
-  return {style.to_light_camera.x(), -style.to_light_camera.y(), -style.to_light_camera.z()};
-}
-
 /// The orbit views' grey of mesh vertex `i`: its AO x the diffuse term of its normal seen from
 /// the eye (no diffuse term without a normal).
 float orbit_shade(const TriangleMesh& mesh, std::size_t i, const Eigen::Matrix3f& eye_R_world,
@@ -58,6 +52,31 @@ float orbit_shade(const TriangleMesh& mesh, std::size_t i, const Eigen::Matrix3f
   if (!n_world.isZero(0.0f))
     shade *= diffuse((eye_R_world * n_world).normalized(), to_light_eye, ambient);
   return shade;
+}
+
+/// The orbit views' camera for an image of `out`'s size.
+struct OrbitSetup {
+  Eigen::Matrix4f clip_from_world;
+  Eigen::Matrix4f eye_from_world;
+  Eigen::Matrix4f clip_from_eye;
+  Eigen::Matrix3f eye_R_world;
+  Eigen::Vector3f to_light_eye;  ///< GL eye coordinates (y up, z backwards)
+};
+
+/// What both orbit views start with: `out` filled with the background and `setup` for its size;
+/// false when `out` is empty.
+bool start_orbit_view(const OrbitCamera& camera, const ViewStyle& style, Image<Rgb8>& out,
+                      OrbitSetup& setup) {
+  out.fill(style.background);
+  if (out.width() == 0 || out.height() == 0) return false;
+  setup.clip_from_world = orbit_clip_from_world(
+      camera, static_cast<float>(out.width()) / static_cast<float>(out.height()),
+      &setup.eye_from_world, &setup.clip_from_eye);
+  setup.eye_R_world = setup.eye_from_world.topLeftCorner<3, 3>();
+  // The camera-frame light flipped.
+  setup.to_light_eye = {style.to_light_camera.x(), -style.to_light_camera.y(),
+                        -style.to_light_camera.z()};
+  return true;
 }
 
 }  // namespace
@@ -191,27 +210,23 @@ Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
 
 void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
                      const ViewStyle& style) {
+  OrbitSetup setup;
+  if (!start_orbit_view(camera, style, out, setup)) return;
   const int width = out.width();
   const int height = out.height();
-  out.fill(style.background);
-  if (width == 0 || height == 0) return;
-  Eigen::Matrix4f eye_from_world;
-  const Eigen::Matrix4f clip_from_world = orbit_clip_from_world(
-      camera, static_cast<float>(width) / static_cast<float>(height), &eye_from_world);
-  const Eigen::Vector3f to_light_eye = light_in_eye(style);
-  const Eigen::Matrix3f eye_R_world = eye_from_world.topLeftCorner<3, 3>();
   const float half = 0.5f * style.point_size_px;
   thread_local std::vector<float> depth;
   depth.assign(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::infinity());
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Eigen::Vector4f clip = clip_from_world * mesh.vertices[i].homogeneous();
+    const Eigen::Vector4f clip = setup.clip_from_world * mesh.vertices[i].homogeneous();
     const float w = clip.w();
     if (!(w > 0.0f) || std::abs(clip.x()) > w || std::abs(clip.y()) > w || std::abs(clip.z()) > w)
       continue;  // GL clips a point by its centre
     const float xw = (clip.x() / w * 0.5f + 0.5f) * static_cast<float>(width);
     const float yw = (clip.y() / w * 0.5f + 0.5f) * static_cast<float>(height);
     const float zw = clip.z() / w * 0.5f + 0.5f;
-    const Rgb8 colour = grey(orbit_shade(mesh, i, eye_R_world, to_light_eye, style.ambient));
+    const Rgb8 colour =
+        grey(orbit_shade(mesh, i, setup.eye_R_world, setup.to_light_eye, style.ambient));
     // Pixels whose centres (x + 0.5, y + 0.5) lie in [xw - half, xw + half) (GL point rule).
     const int x0 = std::max(0, static_cast<int>(std::ceil(xw - half - 0.5f)));
     const int x1 = std::min(width - 1, static_cast<int>(std::ceil(xw + half - 0.5f)) - 1);
@@ -253,16 +268,11 @@ float surface_spacing_m(const TriangleMesh& mesh, const ViewStyle& style) {
 
 void composite_splats(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
                       const ViewStyle& style) {
+  OrbitSetup setup;
+  if (!start_orbit_view(camera, style, out, setup)) return;
   const int width = out.width();
   const int height = out.height();
-  out.fill(style.background);
-  if (width == 0 || height == 0) return;
-  Eigen::Matrix4f eye_from_world;
-  Eigen::Matrix4f clip_from_eye;
-  orbit_clip_from_world(camera, static_cast<float>(width) / static_cast<float>(height),
-                        &eye_from_world, &clip_from_eye);
-  const Eigen::Vector3f to_light_eye = light_in_eye(style);
-  const Eigen::Matrix3f eye_R_world = eye_from_world.topLeftCorner<3, 3>();
+  const Eigen::Matrix4f& clip_from_eye = setup.clip_from_eye;
   const float radius_m = style.splat_radius_per_spacing * surface_spacing_m(mesh, style);
   const float epsilon_m = radius_m;  // the blending depth: one splat radius (Scanopy)
   const float radius_px_m = radius_m * clip_from_eye(1, 1) * 0.5f * static_cast<float>(height);
@@ -278,7 +288,7 @@ void composite_splats(const TriangleMesh& mesh, const OrbitCamera& camera, Image
   thread_local std::vector<Splat> splats;
   splats.clear();
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Eigen::Vector4f eye = eye_from_world * mesh.vertices[i].homogeneous();
+    const Eigen::Vector4f eye = setup.eye_from_world * mesh.vertices[i].homogeneous();
     const Eigen::Vector4f clip = clip_from_eye * eye;
     const float w = clip.w();
     if (!(w > 0.0f) || std::abs(clip.x()) > w || std::abs(clip.y()) > w || std::abs(clip.z()) > w)
@@ -289,7 +299,7 @@ void composite_splats(const TriangleMesh& mesh, const OrbitCamera& camera, Image
                       (clip.y() / w * 0.5f + 0.5f) * static_cast<float>(height),
                       clip.z() / w * 0.5f + 0.5f, back.z() / back.w() * 0.5f + 0.5f,
                       std::clamp(radius_px_m / -eye.z(), kSplatMinRadiusPx, kSplatMaxRadiusPx),
-                      orbit_shade(mesh, i, eye_R_world, to_light_eye, style.ambient)});
+                      orbit_shade(mesh, i, setup.eye_R_world, setup.to_light_eye, style.ambient)});
   }
   // Calls `visit(pixel index, squared distance)` for each pixel whose centre lies within the
   // splat's disk (strictly: the GL point of 2 r + 1 pixels holds them all).

@@ -388,12 +388,14 @@ TEST(ViewStage, AConsumerOfSomeViewsGetsOnlyWhatTheyNeed) {
   std::vector<bool> colour_needed;
   options.on_colour_needed = [&colour_needed](bool needed) { colour_needed.push_back(needed); };
   ViewStage view(options);
-  const auto feed = [&view] {
+  // One view product through `stage`, and what it published.
+  const auto feed_of = [](ViewStage& stage) {
     FrameWork frame;
     frame.view_products = true;
-    EXPECT_TRUE(view.process(frame).is_ok());
-    return view.take_latest();
+    EXPECT_TRUE(stage.process(frame).is_ok());
+    return stage.take_latest();
   };
+  const auto feed = [&] { return feed_of(view); };
   view.set_views({View::kShaded, View::kDepth});
   EXPECT_EQ(colour_needed, std::vector<bool>({false}));
   EXPECT_EQ(feed()->surface, nullptr);  // no orbit viewer: no copy of the cloud
@@ -404,16 +406,10 @@ TEST(ViewStage, AConsumerOfSomeViewsGetsOnlyWhatTheyNeed) {
   EXPECT_EQ(colour_needed.back(), true);
   // The splats view draws the same cloud.
   ViewStage splats(options);
-  const auto splats_feed = [&splats] {
-    FrameWork frame;
-    frame.view_products = true;
-    EXPECT_TRUE(splats.process(frame).is_ok());
-    return splats.take_latest();
-  };
   splats.set_views({View::kShaded});
-  EXPECT_EQ(splats_feed()->surface, nullptr);
+  EXPECT_EQ(feed_of(splats)->surface, nullptr);
   splats.set_views({View::kSplats});
-  EXPECT_NE(splats_feed()->surface, nullptr);
+  EXPECT_NE(feed_of(splats)->surface, nullptr);
 
   // With a window or snapshots every view is made, whatever set_views() says.
   ViewStageOptions all = window_options();
