@@ -163,8 +163,8 @@ TEST(LiveViewCli, HeadlessSnapshotsEveryNthFrameAndTheLast) {
     EXPECT_GT(fs::file_size(e.path()), 100u) << e.path();
   }
   std::set<std::string> expected;
-  for (const char* view : {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth",
-                           "orbit", "splats"})
+  for (const char* view :
+       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);

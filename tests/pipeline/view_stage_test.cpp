@@ -185,8 +185,8 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   std::set<std::string> names;
   for (const auto& e : fs::directory_iterator(snaps)) names.insert(e.path().filename().string());
   std::set<std::string> expected;
-  for (const char* view : {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth",
-                           "orbit", "splats"})
+  for (const char* view :
+       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);

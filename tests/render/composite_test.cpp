@@ -534,8 +534,8 @@ TEST(Splats, OverlappingSplatsAtOneDepthBlendToTheWeightedMean) {
       const double wb = std::exp(-2.0 * ((x - 4 - 32) * (x - 4 - 32) + dy * dy) / (r_px * r_px));
       const double inside_a = (x + 4 - 32) * (x + 4 - 32) + dy * dy < r_px * r_px;
       const double inside_b = (x - 4 - 32) * (x - 4 - 32) + dy * dy < r_px * r_px;
-      const double grey = 255.0 * (inside_a * wa * 0.2 + inside_b * wb * 1.0) /
-                          (inside_a * wa + inside_b * wb);
+      const double grey =
+          255.0 * (inside_a * wa * 0.2 + inside_b * wb * 1.0) / (inside_a * wa + inside_b * wb);
       // Away from a rounding boundary: the float composite lands on the same level.
       ASSERT_GT(std::abs(grey - std::floor(grey) - 0.5), 0.01) << x << "," << y;
       const auto level = static_cast<std::uint8_t>(std::floor(grey + 0.5));
@@ -583,8 +583,7 @@ TEST(Splats, ShadeIsTheOrbitViewsAndClippingAsGlPoints) {
   const ViewStyle style = splat_style(radius_for_pixels(2.0f, 5.0f));
   Image<Rgb8> splats(kSplatW, kSplatH);
   Image<Rgb8> points(kSplatW, kSplatH);
-  for (const Eigen::Vector3f& n :
-       {Eigen::Vector3f(0, 0, -1), Eigen::Vector3f(0.6f, 0, -0.8f)}) {
+  for (const Eigen::Vector3f& n : {Eigen::Vector3f(0, 0, -1), Eigen::Vector3f(0.6f, 0, -0.8f)}) {
     mesh.normals = {n};
     composite_splats(mesh, eye_at_origin(), splats, style);
     composite_orbit(mesh, eye_at_origin(), points, style);
@@ -604,7 +603,8 @@ TEST(Splats, SpacingIsTheMeanEdgeLengthOrTheStylesWithoutFaces) {
   ViewStyle style;
   EXPECT_EQ(mean_edge_length_m(mesh), 0.0f);
   EXPECT_EQ(surface_spacing_m(mesh, style), style.splat_spacing_m);  // the orbit cloud
-  mesh.faces = {{0, 1, 2}};  // edges 3, 4, 5
+  // One face, edges 3, 4, 5.
+  mesh.faces = {{0, 1, 2}};
   EXPECT_FLOAT_EQ(mean_edge_length_m(mesh), 4.0f);
   mesh.faces.push_back({0, 1, 3});  // edges 3, sqrt(10), 1
   EXPECT_FLOAT_EQ(surface_spacing_m(mesh, style), (12.0f + 4.0f + std::sqrt(10.0f)) / 6.0f);

@@ -334,8 +334,8 @@ std::shared_ptr<TriangleMesh> checker_and_plane_behind() {
   for (int plane = 0; plane < 2; ++plane)
     for (int i = 0; i < 40; ++i)
       for (int j = 0; j < 40; ++j) {
-        mesh->vertices.push_back({-0.4f + 0.02f * i + 0.4f * plane, -0.4f + 0.02f * j,
-                                  2.0f + 0.1f * plane});
+        mesh->vertices.push_back(
+            {-0.4f + 0.02f * i + 0.4f * plane, -0.4f + 0.02f * j, 2.0f + 0.1f * plane});
         mesh->normals.push_back({0.0f, 0.0f, -1.0f});
         mesh->quality.push_back(plane == 1 ? 0.5f : (i + j) % 2 == 0 ? 0.1f : 1.0f);
       }
@@ -353,10 +353,9 @@ TEST_F(GlTest, SplatsViewMatchesTheCpuComposite) {
     ViewStyle style;
     bool sphere;
   };
-  const Case cases[] = {
-      {testing::sphere_points({0.2f, -0.1f, 2.0f}, 0.6f, 60), sphere_style, true},
-      {testing::sphere_mesh({0.2f, -0.1f, 2.0f}, 0.6f, 40), ViewStyle{}, true},
-      {checker_and_plane_behind(), checker_style, false}};
+  const Case cases[] = {{testing::sphere_points({0.2f, -0.1f, 2.0f}, 0.6f, 60), sphere_style, true},
+                        {testing::sphere_mesh({0.2f, -0.1f, 2.0f}, 0.6f, 40), ViewStyle{}, true},
+                        {checker_and_plane_behind(), checker_style, false}};
   for (const auto& [surface, style, sphere] : cases) {
     ViewFrame frame;
     frame.intrinsics.width = 160;
@@ -387,7 +386,8 @@ TEST_F(GlTest, SplatsViewMatchesTheCpuComposite) {
     const int cx = static_cast<int>((c.x() / c.w() * 0.5f + 0.5f) * 160.0f);
     const int cy = 119 - static_cast<int>((c.y() / c.w() * 0.5f + 0.5f) * 120.0f);
     for (int y = cy - 15; y < cy + 15; ++y)
-      for (int x = cx - 15; x < cx + 15; ++x) EXPECT_NE(cpu(x, y), style.background) << x << "," << y;
+      for (int x = cx - 15; x < cx + 15; ++x)
+        EXPECT_NE(cpu(x, y), style.background) << x << "," << y;
   }
 }
 
@@ -405,8 +405,8 @@ TEST_F(GlTest, SplatsViewDrawsIntoItsRectangle) {
   make_rig(renderer, target, 200, 150);
   if (HasFatalFailure()) return;
   renderer.upload(frame);
-  for (const GlRect rect : {GlRect{30, 20, 160, 120}, GlRect{30, 20, 160, 120},
-                            GlRect{10, 40, 80, 60}}) {
+  for (const GlRect rect :
+       {GlRect{30, 20, 160, 120}, GlRect{30, 20, 160, 120}, GlRect{10, 40, 80, 60}}) {
     target.bind();
     gl.Viewport(0, 0, 200, 150);
     gl.ClearColor(1.0f, 0.0f, 0.0f, 1.0f);
