@@ -188,7 +188,7 @@ void add_run_options(CLI::App& cmd, RunArgs& args) {
       ->type_name("DIR");
   CLI::Option* snapshot =
       cmd.add_option("--snapshot", args.run.snapshot_dir,
-                     "write PNGs of the views (shaded, ssao, normals, depth, orbit) to DIR; "
+                     "write PNGs of the views (shaded, ssao, ..., orbit, splats) to DIR; "
                      "composited on the CPU, so also with --headless");
   cmd.add_option("--snapshot-every", args.run.snapshot_every,
                  "with --snapshot: every N-th fused frame, and the last one")

@@ -36,7 +36,7 @@ void ViewStage::set_views(const std::vector<View>& views) {
   const auto watched = [&views](View v) {
     return std::find(views.begin(), views.end(), v) != views.end();
   };
-  surface_wanted_.store(watched(View::kOrbit));
+  surface_wanted_.store(watched(View::kOrbit) || watched(View::kSplats));
   if (options_.on_colour_needed)
     options_.on_colour_needed(watched(View::kColour) || watched(View::kColourMvao));
 }

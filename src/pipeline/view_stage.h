@@ -70,7 +70,7 @@ class ViewStage {
   void set_publish(bool publish) { publish_.store(publish); }
   /// The views a consumer that shows only some of them (the service's viewers) watches now: the
   /// fused colour is made only for the colour views, the orbit cloud's mesh only for the orbit
-  /// view. Ignored while a window or snapshots (which show every view) are consumers
+  /// and splats views. Ignored while a window or snapshots (which show every view) are consumers
   /// (thread-safe).
   void set_views(const std::vector<View>& views);
 

@@ -43,6 +43,42 @@ float diffuse(const Eigen::Vector3f& n, const Eigen::Vector3f& to_light, float a
   return ambient + (1.0f - ambient) * lambert;
 }
 
+/// The orbit views' grey of mesh vertex `i`: its AO x the diffuse term of its normal seen from
+/// the eye (no diffuse term without a normal).
+float orbit_shade(const TriangleMesh& mesh, std::size_t i, const Eigen::Matrix3f& eye_R_world,
+                  const Eigen::Vector3f& to_light_eye, float ambient) {
+  float shade = vertex_ao(mesh, i);
+  const Eigen::Vector3f n_world = vertex_normal(mesh, i);
+  if (!n_world.isZero(0.0f))
+    shade *= diffuse((eye_R_world * n_world).normalized(), to_light_eye, ambient);
+  return shade;
+}
+
+/// The orbit views' camera for an image of `out`'s size.
+struct OrbitSetup {
+  Eigen::Matrix4f clip_from_world;
+  Eigen::Matrix4f eye_from_world;
+  Eigen::Matrix4f clip_from_eye;
+  Eigen::Matrix3f eye_R_world;
+  Eigen::Vector3f to_light_eye;  ///< GL eye coordinates (y up, z backwards)
+};
+
+/// What both orbit views start with: `out` filled with the background and `setup` for its size;
+/// false when `out` is empty.
+bool start_orbit_view(const OrbitCamera& camera, const ViewStyle& style, Image<Rgb8>& out,
+                      OrbitSetup& setup) {
+  out.fill(style.background);
+  if (out.width() == 0 || out.height() == 0) return false;
+  setup.clip_from_world = orbit_clip_from_world(
+      camera, static_cast<float>(out.width()) / static_cast<float>(out.height()),
+      &setup.eye_from_world, &setup.clip_from_eye);
+  setup.eye_R_world = setup.eye_from_world.topLeftCorner<3, 3>();
+  // The camera-frame light flipped.
+  setup.to_light_eye = {style.to_light_camera.x(), -style.to_light_camera.y(),
+                        -style.to_light_camera.z()};
+  return true;
+}
+
 }  // namespace
 
 Eigen::Vector3f vertex_normal(const TriangleMesh& mesh, std::size_t i) {
@@ -75,6 +111,8 @@ const char* view_name(View view) {
       return "depth";
     case View::kOrbit:
       return "orbit";
+    case View::kSplats:
+      return "splats";
   }
   return "unknown";
 }
@@ -154,7 +192,7 @@ OrbitCamera fit_orbit(const TriangleMesh& mesh) {
 }
 
 Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
-                                      Eigen::Matrix4f* view) {
+                                      Eigen::Matrix4f* view, Eigen::Matrix4f* projection) {
   const float pitch = std::clamp(camera.pitch_rad, -kOrbitMaxPitchRad, kOrbitMaxPitchRad);
   const glm::vec3 forward(std::sin(camera.yaw_rad) * std::cos(pitch), std::sin(pitch),
                           std::cos(camera.yaw_rad) * std::cos(pitch));
@@ -166,39 +204,29 @@ Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
                                                    0.01f * distance, 100.0f * distance);
   const glm::mat4 clip_from_world = clip_from_eye * eye_from_world;
   if (view) *view = Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(eye_from_world));
+  if (projection) *projection = Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(clip_from_eye));
   return Eigen::Map<const Eigen::Matrix4f>(glm::value_ptr(clip_from_world));
 }
 
 void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
                      const ViewStyle& style) {
+  OrbitSetup setup;
+  if (!start_orbit_view(camera, style, out, setup)) return;
   const int width = out.width();
   const int height = out.height();
-  out.fill(style.background);
-  if (width == 0 || height == 0) return;
-  Eigen::Matrix4f eye_from_world;
-  const Eigen::Matrix4f clip_from_world = orbit_clip_from_world(
-      camera, static_cast<float>(width) / static_cast<float>(height), &eye_from_world);
-  // The light in GL eye coordinates (y up, z backwards) is the camera-frame light flipped.
-  const Eigen::Vector3f to_light_eye(style.to_light_camera.x(), -style.to_light_camera.y(),
-                                     -style.to_light_camera.z());
-  const Eigen::Matrix3f eye_R_world = eye_from_world.topLeftCorner<3, 3>();
-  const bool has_normals = !mesh.normals.empty();
   const float half = 0.5f * style.point_size_px;
   thread_local std::vector<float> depth;
   depth.assign(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::infinity());
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Eigen::Vector4f clip = clip_from_world * mesh.vertices[i].homogeneous();
+    const Eigen::Vector4f clip = setup.clip_from_world * mesh.vertices[i].homogeneous();
     const float w = clip.w();
     if (!(w > 0.0f) || std::abs(clip.x()) > w || std::abs(clip.y()) > w || std::abs(clip.z()) > w)
       continue;  // GL clips a point by its centre
     const float xw = (clip.x() / w * 0.5f + 0.5f) * static_cast<float>(width);
     const float yw = (clip.y() / w * 0.5f + 0.5f) * static_cast<float>(height);
     const float zw = clip.z() / w * 0.5f + 0.5f;
-    float shade = vertex_ao(mesh, i);
-    const Eigen::Vector3f n_world = has_normals ? vertex_normal(mesh, i) : Eigen::Vector3f::Zero();
-    if (!n_world.isZero(0.0f))
-      shade *= diffuse((eye_R_world * n_world).normalized(), to_light_eye, style.ambient);
-    const Rgb8 colour = grey(shade);
+    const Rgb8 colour =
+        grey(orbit_shade(mesh, i, setup.eye_R_world, setup.to_light_eye, style.ambient));
     // Pixels whose centres (x + 0.5, y + 0.5) lie in [xw - half, xw + half) (GL point rule).
     const int x0 = std::max(0, static_cast<int>(std::ceil(xw - half - 0.5f)));
     const int x1 = std::min(width - 1, static_cast<int>(std::ceil(xw + half - 0.5f)) - 1);
@@ -217,6 +245,106 @@ void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<
   }
 }
 
+float mean_edge_length_m(const TriangleMesh& mesh) {
+  const std::size_t n = mesh.vertices.size();
+  double sum = 0.0;
+  std::size_t edges = 0;
+  for (const Eigen::Vector3i& f : mesh.faces) {
+    if ((f.array() < 0).any() || (f.array().cast<std::size_t>() >= n).any()) continue;
+    const Eigen::Vector3f& a = mesh.vertices[static_cast<std::size_t>(f[0])];
+    const Eigen::Vector3f& b = mesh.vertices[static_cast<std::size_t>(f[1])];
+    const Eigen::Vector3f& c = mesh.vertices[static_cast<std::size_t>(f[2])];
+    if (!a.allFinite() || !b.allFinite() || !c.allFinite()) continue;
+    sum += static_cast<double>((b - a).norm() + (c - b).norm() + (a - c).norm());
+    edges += 3;
+  }
+  return edges > 0 ? static_cast<float>(sum / static_cast<double>(edges)) : 0.0f;
+}
+
+float surface_spacing_m(const TriangleMesh& mesh, const ViewStyle& style) {
+  const float edge_m = mean_edge_length_m(mesh);
+  return edge_m > 0.0f ? edge_m : style.splat_spacing_m;
+}
+
+void composite_splats(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
+                      const ViewStyle& style) {
+  OrbitSetup setup;
+  if (!start_orbit_view(camera, style, out, setup)) return;
+  const int width = out.width();
+  const int height = out.height();
+  const Eigen::Matrix4f& clip_from_eye = setup.clip_from_eye;
+  const float radius_m = style.splat_radius_per_spacing * surface_spacing_m(mesh, style);
+  const float epsilon_m = radius_m;  // the blending depth: one splat radius (Scanopy)
+  const float radius_px_m = radius_m * clip_from_eye(1, 1) * 0.5f * static_cast<float>(height);
+  // The splats on screen (window coordinates, GL rows going up), as shaders/splats.vert makes
+  // them, in vertex order.
+  struct Splat {
+    float x, y;        // centre (pixels)
+    float depth;       // window depth of the centre
+    float depth_back;  // window depth of the centre pushed back by epsilon
+    float radius;      // pixels
+    float shade;
+  };
+  thread_local std::vector<Splat> splats;
+  splats.clear();
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Eigen::Vector4f eye = setup.eye_from_world * mesh.vertices[i].homogeneous();
+    const Eigen::Vector4f clip = clip_from_eye * eye;
+    const float w = clip.w();
+    if (!(w > 0.0f) || std::abs(clip.x()) > w || std::abs(clip.y()) > w || std::abs(clip.z()) > w)
+      continue;  // GL clips a point by its centre
+    const Eigen::Vector4f back =
+        clip_from_eye * Eigen::Vector4f(eye.x(), eye.y(), eye.z() - epsilon_m, 1.0f);
+    splats.push_back({(clip.x() / w * 0.5f + 0.5f) * static_cast<float>(width),
+                      (clip.y() / w * 0.5f + 0.5f) * static_cast<float>(height),
+                      clip.z() / w * 0.5f + 0.5f, back.z() / back.w() * 0.5f + 0.5f,
+                      std::clamp(radius_px_m / -eye.z(), kSplatMinRadiusPx, kSplatMaxRadiusPx),
+                      orbit_shade(mesh, i, setup.eye_R_world, setup.to_light_eye, style.ambient)});
+  }
+  // Calls `visit(pixel index, squared distance)` for each pixel whose centre lies within the
+  // splat's disk (strictly: the GL point of 2 r + 1 pixels holds them all).
+  const auto for_each_pixel = [&](const Splat& s, const auto& visit) {
+    const int x0 = std::max(0, static_cast<int>(std::floor(s.x - s.radius)));
+    const int x1 = std::min(width - 1, static_cast<int>(std::floor(s.x + s.radius)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(s.y - s.radius)));
+    const int y1 = std::min(height - 1, static_cast<int>(std::floor(s.y + s.radius)));
+    const float r2 = s.radius * s.radius;
+    for (int y = y0; y <= y1; ++y) {
+      const float dy = static_cast<float>(y) + 0.5f - s.y;
+      for (int x = x0; x <= x1; ++x) {
+        const float dx = static_cast<float>(x) + 0.5f - s.x;
+        const float d2 = dx * dx + dy * dy;
+        if (d2 < r2) visit(static_cast<std::size_t>(y) * width + x, d2);
+      }
+    }
+  };
+  const std::size_t pixels = static_cast<std::size_t>(width) * height;
+  // Pass 1: the depth of the front surface, pushed back by epsilon.
+  thread_local std::vector<float> front;
+  front.assign(pixels, std::numeric_limits<float>::infinity());
+  for (const Splat& s : splats)
+    for_each_pixel(s, [&](std::size_t p, float) { front[p] = std::min(front[p], s.depth_back); });
+  // Pass 2: the Gaussian-weighted sums of the splats within epsilon of the front.
+  thread_local std::vector<Eigen::Vector2f> sums;  // (sum of w x shade, sum of w)
+  sums.assign(pixels, Eigen::Vector2f::Zero());
+  for (const Splat& s : splats) {
+    const float inv_two_sigma2 = 2.0f / (s.radius * s.radius);  // sigma = r / 2
+    for_each_pixel(s, [&](std::size_t p, float d2) {
+      if (!(s.depth <= front[p])) return;
+      const float w = std::exp(-d2 * inv_two_sigma2);
+      sums[p] += Eigen::Vector2f(w * s.shade, w);
+    });
+  }
+  // Pass 3: normalise.
+  for (int y = 0; y < height; ++y) {
+    Rgb8* dst = out.row(height - 1 - y);  // GL rows go up, image rows go down
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector2f& sum = sums[static_cast<std::size_t>(y) * width + x];
+      if (sum.y() > 0.0f) dst[x] = grey(sum.x() / sum.y());
+    }
+  }
+}
+
 int model_scale(const ViewFrame& frame) {
   const int scale = image_scale(frame.depth_m, frame.intrinsics.width, frame.intrinsics.height);
   return scale > 0 ? scale : 1;
@@ -230,9 +358,13 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
   const int out_width = width / step;
   const int out_height = height / step;
   if (out.width() != out_width || out.height() != out_height) out.resize(out_width, out_height);
-  if (view == View::kOrbit) {
+  if (orbit_camera_view(view)) {
     if (frame.surface && !frame.surface->empty()) {
-      composite_orbit(*frame.surface, fit_orbit(*frame.surface), out, style);
+      const OrbitCamera camera = fit_orbit(*frame.surface);
+      if (view == View::kOrbit)
+        composite_orbit(*frame.surface, camera, out, style);
+      else
+        composite_splats(*frame.surface, camera, out, style);
     } else {
       out.fill(style.background);
     }
@@ -286,6 +418,7 @@ void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out, const V
                                style);
           break;
         case View::kOrbit:
+        case View::kSplats:
           break;
       }
     }

@@ -20,6 +20,18 @@
 ///              blue-cyan-green-yellow-red map over [depth_min_m, depth_max_m].
 ///  - kOrbit:   the surface's vertices as square points of point_size_px, grey = AO x diffuse with
 ///              the same light fixed to the orbit camera, z-buffered.
+///  - kSplats:  the same vertices, camera, shade and culling (by the centre, as GL points) as
+///              kOrbit, drawn as Gaussian splats blended in three passes (Scanopy): each vertex is
+///              a screen-aligned disk of world radius R = splat_radius_per_spacing x the surface's
+///              point spacing (surface_spacing_m), i.e. of r = R x f / z pixels at eye depth z
+///              (f: pixels per metre at 1 m), r clamped to [kSplatMinRadiusPx, kSplatMaxRadiusPx];
+///              a pixel whose centre is at distance d < r from the projected centre is covered
+///              with weight w = exp(-d^2 / (2 sigma^2)), sigma = r / 2. Pass 1 keeps per pixel the
+///              nearest window depth of the covering splats pushed back by epsilon = R along the
+///              eye's z; pass 2 sums w x shade and w over the covering splats whose own window
+///              depth is <= that depth (the front surface's splats within epsilon, in vertex
+///              order); pass 3 writes grey = sum(w x shade) / sum(w), the background where no
+///              splat covers the pixel.
 /// Pixels without data get `background`. Colours go to 8 bits as floor(255 * c + 0.5).
 #pragma once
 
@@ -43,7 +55,21 @@ struct ViewStyle {
   float depth_max_m = 4.5f;  ///< depth colour map: last stop (m)
   Rgb8 background{24, 24, 32};
   float point_size_px = 2.0f;  ///< orbit view: side of each vertex's square (pixels)
+  /// Splats view: the point spacing of a surface without faces (m). The view stage's orbit cloud
+  /// keeps one point per 1 cm voxel (SurfaceCloudOptions::voxel_m); a mesh with faces uses its
+  /// mean edge length instead (surface_spacing_m).
+  float splat_spacing_m = 0.01f;
+  /// Splats view: disk radius / point spacing. 1.5: the cloud's points lie anywhere in their
+  /// voxels, neighbours up to about two spacings apart; the disks overlap without holes.
+  float splat_radius_per_spacing = 1.5f;
 };
+
+/// The splats view's disk radius on screen is kept within these (pixels): at least a pixel
+/// centre lies within kSplatMinRadiusPx of any point (sqrt(2) / 2 < 0.75), so a distant splat
+/// still covers a pixel; the largest keeps the GL point holding a disk (2 r + 1 pixels) well
+/// below the point sizes GL implementations draw (255 in Mesa).
+inline constexpr float kSplatMinRadiusPx = 0.75f;
+inline constexpr float kSplatMaxRadiusPx = 64.0f;
 
 /// A camera orbiting `target_world` (world frame of the pipeline = first camera's frame, y down).
 /// yaw = pitch = 0 looks along +z like the first camera; yaw turns about the world's up (-y) axis,
@@ -64,14 +90,22 @@ OrbitCamera fit_orbit(const TriangleMesh& mesh);
 
 /// Column-major 4x4 clip-from-world matrix of `camera` for an image of `aspect` = width / height
 /// (OpenGL conventions: eye looks down -z, y up, depth in [-1, 1]; near and far planes at 0.01 and
-/// 100 times the distance); `view` receives eye-from-world.
+/// 100 times the distance); `view` receives eye-from-world, `projection` clip-from-eye.
 Eigen::Matrix4f orbit_clip_from_world(const OrbitCamera& camera, float aspect,
-                                      Eigen::Matrix4f* view = nullptr);
+                                      Eigen::Matrix4f* view = nullptr,
+                                      Eigen::Matrix4f* projection = nullptr);
 
 /// Orbit-view inputs of mesh vertex `i`: its AO (quality clamped to [0, 1]; 1 when the mesh has no
 /// quality or it is NaN) and its normal (zero when absent or not finite: no diffuse term).
 float vertex_ao(const TriangleMesh& mesh, std::size_t i);
 Eigen::Vector3f vertex_normal(const TriangleMesh& mesh, std::size_t i);
+
+/// The mean length of `mesh`'s face edges (each face's three edges; faces with an index out of
+/// range or a non-finite vertex are skipped), or 0 when it has none (m).
+float mean_edge_length_m(const TriangleMesh& mesh);
+/// The splats view's point spacing of `mesh` (m): mean_edge_length_m(), or style.splat_spacing_m
+/// for a surface without faces (the orbit cloud).
+float surface_spacing_m(const TriangleMesh& mesh, const ViewStyle& style);
 
 /// 8-bit colour of a value in [0, 1] (clamped) as floor(255 * c + 0.5).
 std::uint8_t to_u8(float c);
@@ -90,10 +124,10 @@ Rgb8 shade_colour_mvao(float depth_m, const Eigen::Vector3f& normal_camera, Rgb8
 Rgb8 shade_normal(float depth_m, const Eigen::Vector3f& normal_camera, const ViewStyle& style);
 Rgb8 shade_depth(float depth_m, const ViewStyle& style);
 
-/// The view as an image: the size of frame.intrinsics for the image views; for kOrbit the same
-/// size, seen from fit_orbit(*frame.surface). `out` is resized (its buffer reused). With `step`
-/// > 1 the image is that many times smaller along each axis: its pixel (x, y) is the view's pixel
-/// (x * step, y * step) (a step equal to model_scale() loses nothing of the model's views).
+/// The view as an image: the size of frame.intrinsics for the image views; for kOrbit and kSplats
+/// the same size, seen from fit_orbit(*frame.surface). `out` is resized (its buffer reused). With
+/// `step` > 1 the image is that many times smaller along each axis: its pixel (x, y) is the view's
+/// pixel (x * step, y * step) (a step equal to model_scale() loses nothing of the model's views).
 void composite_view(const ViewFrame& frame, View view, Image<Rgb8>& out,
                     const ViewStyle& style = {}, int step = 1);
 
@@ -104,6 +138,8 @@ int model_scale(const ViewFrame& frame);
 /// The orbit view of `mesh` from `camera` into `out` (its size is kept; must not be empty).
 void composite_orbit(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
                      const ViewStyle& style = {});
-
+/// The splats view of `mesh` from `camera` into `out` (its size is kept; must not be empty).
+void composite_splats(const TriangleMesh& mesh, const OrbitCamera& camera, Image<Rgb8>& out,
+                      const ViewStyle& style = {});
 
 }  // namespace aoscan

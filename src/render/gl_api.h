@@ -19,10 +19,13 @@ namespace aoscan {
   X(PFNGLCLEARCOLORPROC, ClearColor, "glClearColor")                                        \
   X(PFNGLCLEARDEPTHPROC, ClearDepth, "glClearDepth")                                        \
   X(PFNGLCLEARPROC, Clear, "glClear")                                                       \
+  X(PFNGLCLEARBUFFERFVPROC, ClearBufferfv, "glClearBufferfv")                               \
   X(PFNGLENABLEPROC, Enable, "glEnable")                                                    \
   X(PFNGLDISABLEPROC, Disable, "glDisable")                                                 \
   X(PFNGLBLENDFUNCPROC, BlendFunc, "glBlendFunc")                                           \
   X(PFNGLDEPTHFUNCPROC, DepthFunc, "glDepthFunc")                                           \
+  X(PFNGLDEPTHMASKPROC, DepthMask, "glDepthMask")                                           \
+  X(PFNGLCOLORMASKPROC, ColorMask, "glColorMask")                                           \
   X(PFNGLPIXELSTOREIPROC, PixelStorei, "glPixelStorei")                                     \
   X(PFNGLREADPIXELSPROC, ReadPixels, "glReadPixels")                                        \
   X(PFNGLFINISHPROC, Finish, "glFinish")                                                    \
@@ -49,6 +52,7 @@ namespace aoscan {
   X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation, "glGetUniformLocation")                \
   X(PFNGLUNIFORM1IPROC, Uniform1i, "glUniform1i")                                           \
   X(PFNGLUNIFORM1FPROC, Uniform1f, "glUniform1f")                                           \
+  X(PFNGLUNIFORM2FPROC, Uniform2f, "glUniform2f")                                           \
   X(PFNGLUNIFORM3FPROC, Uniform3f, "glUniform3f")                                           \
   X(PFNGLUNIFORMMATRIX3FVPROC, UniformMatrix3fv, "glUniformMatrix3fv")                      \
   X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv, "glUniformMatrix4fv")                      \

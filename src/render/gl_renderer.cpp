@@ -49,6 +49,9 @@ const std::vector<ProgramSpec>& program_specs() {
       {"depth", "fullscreen.vert", "depth.frag"},
       {"overlay", "fullscreen.vert", "overlay.frag"},
       {"orbit", "points.vert", "points.frag"},
+      {"splats_depth", "splats.vert", "splats_depth.frag"},            // pass 1
+      {"splats_accumulate", "splats.vert", "splats_accumulate.frag"},  // pass 2
+      {"splats", "fullscreen.vert", "splats.frag"},                    // pass 3
   };
   return specs;
 }
@@ -85,6 +88,11 @@ void GlViewRenderer::release() {
   gl_->DeleteVertexArrays(1, &points_vao_);
   gl_->DeleteBuffers(1, &points_vbo_);
   empty_vao_ = points_vao_ = points_vbo_ = 0;
+  gl_->DeleteFramebuffers(1, &splat_framebuffer_);
+  gl_->DeleteTextures(1, &splat_sums_);
+  gl_->DeleteRenderbuffers(1, &splat_depth_);
+  splat_framebuffer_ = splat_sums_ = splat_depth_ = 0;
+  splat_size_ = {};
   gl_ = nullptr;
 }
 
@@ -244,11 +252,13 @@ void GlViewRenderer::upload(const ViewFrame& frame, std::optional<View> only) {
   frame_height_ = height;
 
   const TriangleMesh* surface = frame.surface.get();
-  if (needs({View::kOrbit}) && surface != uploaded_surface_) {
+  if (needs({View::kOrbit, View::kSplats}) && surface != uploaded_surface_) {
     surface_ = frame.surface;
     uploaded_surface_ = surface;
     point_count_ = 0;
+    surface_edge_m_ = 0.0f;
     if (surface) {
+      surface_edge_m_ = mean_edge_length_m(*surface);
       const std::size_t n = surface->vertices.size();
       staging_.resize(7 * n);
       for (std::size_t i = 0; i < n; ++i) {
@@ -283,7 +293,11 @@ void GlViewRenderer::draw(View view, const GlRect& rect, const ViewStyle& style,
   gl.Disable(GL_BLEND);
   const bool colour_view = view == View::kColour || view == View::kColourMvao;
   if (colour_view && !has_colour_) view = View::kShaded;  // a frame without colour
-  const GLuint program = programs_.at(view == View::kOrbit ? "orbit" : view_name(view));
+  const GLuint program = programs_.at(view_name(view));
+  if (view == View::kSplats) {
+    draw_splats(program, rect, style, orbit);
+    return;
+  }
   gl.UseProgram(program);
   const auto uniform = [&](const char* name) { return gl.GetUniformLocation(program, name); };
   const Rgb8 bg = style.background;
@@ -348,8 +362,107 @@ void GlViewRenderer::draw(View view, const GlRect& rect, const ViewStyle& style,
       gl.Uniform1f(uniform("u_depth_max"), style.depth_max_m);
       break;
     case View::kOrbit:
+    case View::kSplats:
       break;
   }
+  gl.BindVertexArray(empty_vao_);
+  gl.DrawArrays(GL_TRIANGLES, 0, 3);
+  gl.BindVertexArray(0);
+}
+
+bool GlViewRenderer::ensure_splat_target(int width, int height) {
+  const GlApi& gl = *gl_;
+  if (splat_framebuffer_ == 0) {
+    gl.GenFramebuffers(1, &splat_framebuffer_);
+    gl.GenTextures(1, &splat_sums_);
+    gl.GenRenderbuffers(1, &splat_depth_);
+    gl.BindTexture(GL_TEXTURE_2D, splat_sums_);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  }
+  gl.BindFramebuffer(GL_FRAMEBUFFER, splat_framebuffer_);
+  if (splat_size_ != std::array<int, 2>{width, height}) {
+    gl.BindTexture(GL_TEXTURE_2D, splat_sums_);
+    gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, width, height, 0, GL_RG, GL_FLOAT, nullptr);
+    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, splat_sums_, 0);
+    gl.BindRenderbuffer(GL_RENDERBUFFER, splat_depth_);
+    gl.RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, width, height);
+    gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, splat_depth_);
+    splat_size_ = {width, height};
+  }
+  return gl.CheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+}
+
+void GlViewRenderer::draw_splats(GLuint program, const GlRect& rect, const ViewStyle& style,
+                                 const OrbitCamera& orbit) {
+  const GlApi& gl = *gl_;
+  if (point_count_ == 0) return;
+  GLint target = 0;  // the caller's framebuffer, where pass 3 draws
+  gl.GetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
+  if (!ensure_splat_target(rect.width, rect.height)) {
+    gl.BindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(target));
+    return;
+  }
+  Eigen::Matrix4f eye_from_world;
+  Eigen::Matrix4f clip_from_eye;
+  orbit_clip_from_world(orbit, static_cast<float>(rect.width) / static_cast<float>(rect.height),
+                        &eye_from_world, &clip_from_eye);
+  const float spacing_m = surface_edge_m_ > 0.0f ? surface_edge_m_ : style.splat_spacing_m;
+  const float radius_m = style.splat_radius_per_spacing * spacing_m;
+  const Eigen::Vector3f& l = style.to_light_camera;
+  gl.Viewport(0, 0, rect.width, rect.height);
+  const GLfloat zeros[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  const GLfloat far_depth = 1.0f;
+  gl.ClearBufferfv(GL_COLOR, 0, zeros);
+  gl.ClearBufferfv(GL_DEPTH, 0, &far_depth);
+  gl.Enable(GL_PROGRAM_POINT_SIZE);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.BindVertexArray(points_vao_);
+  for (const bool depth_pass : {true, false}) {
+    const GLuint p = programs_.at(depth_pass ? "splats_depth" : "splats_accumulate");
+    gl.UseProgram(p);
+    const auto uniform = [&](const char* name) { return gl.GetUniformLocation(p, name); };
+    gl.UniformMatrix4fv(uniform("u_eye_from_world"), 1, GL_FALSE, eye_from_world.data());
+    gl.UniformMatrix4fv(uniform("u_clip_from_eye"), 1, GL_FALSE, clip_from_eye.data());
+    gl.Uniform3f(uniform("u_to_light_eye"), l.x(), -l.y(), -l.z());
+    gl.Uniform1f(uniform("u_ambient"), style.ambient);
+    gl.Uniform2f(uniform("u_viewport_size"), static_cast<float>(rect.width),
+                 static_cast<float>(rect.height));
+    gl.Uniform1f(uniform("u_radius_px_m"),
+                 radius_m * clip_from_eye(1, 1) * 0.5f * static_cast<float>(rect.height));
+    gl.Uniform1f(uniform("u_epsilon_m"), radius_m);  // the blending depth: one splat radius
+    gl.Uniform1f(uniform("u_min_radius_px"), kSplatMinRadiusPx);
+    gl.Uniform1f(uniform("u_max_radius_px"), kSplatMaxRadiusPx);
+    // Pass 1 writes the nearest pushed-back depth, no colour; pass 2 adds up the sums of the
+    // fragments not behind it, without writing depth.
+    gl.ColorMask(!depth_pass, !depth_pass, !depth_pass, !depth_pass);
+    gl.DepthMask(depth_pass ? GL_TRUE : GL_FALSE);
+    gl.DepthFunc(depth_pass ? GL_LESS : GL_LEQUAL);
+    if (depth_pass) {
+      gl.Disable(GL_BLEND);
+    } else {
+      gl.Enable(GL_BLEND);
+      gl.BlendFunc(GL_ONE, GL_ONE);
+    }
+    gl.DrawArrays(GL_POINTS, 0, point_count_);
+  }
+  gl.Disable(GL_BLEND);
+  gl.Disable(GL_DEPTH_TEST);
+  gl.DepthMask(GL_TRUE);
+  gl.DepthFunc(GL_LESS);
+
+  // Pass 3: normalise into the caller's rectangle.
+  gl.BindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(target));
+  gl.Viewport(rect.x, rect.y, rect.width, rect.height);
+  gl.UseProgram(program);
+  const Rgb8 bg = style.background;
+  gl.Uniform3f(gl.GetUniformLocation(program, "u_background"), bg.r / 255.0f, bg.g / 255.0f,
+               bg.b / 255.0f);
+  gl.Uniform2f(gl.GetUniformLocation(program, "u_origin"), static_cast<float>(rect.x),
+               static_cast<float>(rect.y));
+  gl.ActiveTexture(GL_TEXTURE0);
+  gl.BindTexture(GL_TEXTURE_2D, splat_sums_);
+  gl.Uniform1i(gl.GetUniformLocation(program, "u_sums"), 0);
   gl.BindVertexArray(empty_vao_);
   gl.DrawArrays(GL_TRIANGLES, 0, 3);
   gl.BindVertexArray(0);

@@ -61,7 +61,8 @@ class GlViewRenderer {
   /// copies every texture on the CPU that fusion runs on).
   void upload(const ViewFrame& frame, std::optional<View> only = std::nullopt);
   /// Draws `view` of the last uploaded frame into `rect` of the bound framebuffer. The orbit view
-  /// clears the depth buffer; the caller clears colour.
+  /// clears the depth buffer; the caller clears colour. The splats view draws its first two passes
+  /// into a float framebuffer of the renderer's own (rect's size) and its third into `rect`.
   void draw(View view, const GlRect& rect, const ViewStyle& style, const OrbitCamera& orbit);
   /// Blends `overlay` (e.g. the HUD) with its top-left corner at image pixel (x, y) of a
   /// framebuffer `framebuffer_height` pixels high.
@@ -74,6 +75,11 @@ class GlViewRenderer {
  private:
   enum Texture { kDepth, kNormals, kSsao, kMvao, kColour, kRawDepth, kOverlay, kTextureCount };
   void release();
+  /// The splats view's three passes (see composite.h); `program` is its normalising pass.
+  void draw_splats(GLuint program, const GlRect& rect, const ViewStyle& style,
+                   const OrbitCamera& orbit);
+  /// Makes (or resizes) the splats view's float target: RG32F sums + 32-bit float depth.
+  bool ensure_splat_target(int width, int height);
   void upload_float(Texture texture, const Image<float>* image, float no_data, int width,
                     int height);
   void bind_texture(GLuint program, const char* uniform, Texture texture, int unit);
@@ -89,6 +95,11 @@ class GlViewRenderer {
   GLuint points_vao_ = 0;
   GLuint points_vbo_ = 0;
   GLsizei point_count_ = 0;
+  float surface_edge_m_ = 0.0f;  ///< mean_edge_length_m() of the uploaded surface
+  GLuint splat_framebuffer_ = 0;
+  GLuint splat_sums_ = 0;   ///< RG32F texture: (sum of w x grey, sum of w)
+  GLuint splat_depth_ = 0;  ///< 32-bit float depth renderbuffer
+  std::array<int, 2> splat_size_{};
   const TriangleMesh* uploaded_surface_ = nullptr;
   std::shared_ptr<const TriangleMesh> surface_;  ///< keeps uploaded_surface_ alive
   bool has_raw_depth_ = false;

@@ -126,7 +126,7 @@ LiveViewResult run_loop(const LiveViewOptions& options, const ViewFeed& feed,
       gl.Clear(GL_COLOR_BUFFER_BIT);
       if (shown) {
         const GlRect rect =
-            state.view == View::kOrbit
+            orbit_camera_view(state.view)
                 ? GlRect{0, 0, width, height}
                 : letterbox(renderer.frame_width(), renderer.frame_height(), width, height);
         renderer.draw(state.view, rect, options.style, orbit);

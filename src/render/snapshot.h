@@ -19,8 +19,9 @@ struct SnapshotOptions {
   std::string dir;            ///< created if missing
   std::uint64_t every_n = 1;  ///< write every N-th offered frame (the first one included)
   /// Every view, in the `v` cycle's order.
-  std::vector<View> views = {View::kShaded,     View::kSsao,    View::kMvao,  View::kColour,
-                             View::kColourMvao, View::kNormals, View::kDepth, View::kOrbit};
+  std::vector<View> views = {View::kShaded, View::kSsao,       View::kMvao,
+                             View::kColour, View::kColourMvao, View::kNormals,
+                             View::kDepth,  View::kOrbit,      View::kSplats};
   ViewStyle style;
 };
 

@@ -31,13 +31,20 @@ enum class View {
   kNormals,     ///< raycast normals as colours
   kDepth,       ///< raw depth through a colour map
   kOrbit,       ///< free orbit view of the fused surface (points shaded by their AO)
+  kSplats,      ///< the orbit view's surface as blended Gaussian splats shaded by their AO
 };
-inline constexpr int kViewCount = 8;
+inline constexpr int kViewCount = 9;
+
+/// True for the views of the fused surface seen from the orbit camera (kOrbit, kSplats): they
+/// draw ViewFrame::surface, not the frame's images.
+inline bool orbit_camera_view(View view) {
+  return view == View::kOrbit || view == View::kSplats;
+}
 
 /// Short lower-case name used in snapshot file names and the HUD ("shaded", "ssao", "mvao",
 /// "colour", "colour_mvao", ...).
 const char* view_name(View view);
-/// The view after `view` in the cycle (kOrbit wraps to kShaded).
+/// The view after `view` in the cycle (kSplats wraps to kShaded).
 View next_view(View view);
 
 /// Numbers the HUD shows; filled by the pipeline owner.
@@ -75,7 +82,7 @@ struct ViewFrame {
   std::string tracking_state = "ok";  ///< e.g. "good", kTrackingLostState, "paused"
   HudStats hud;
   /// The fused surface in the world frame with per-vertex AO (quality) and normals, for the orbit
-  /// view; null or empty until the pipeline exports one. Shared: publishing it is cheap.
+  /// views; null or empty until the pipeline exports one. Shared: publishing it is cheap.
   std::shared_ptr<const TriangleMesh> surface;
 };
 

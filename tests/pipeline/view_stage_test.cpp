@@ -181,16 +181,16 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   const SessionResult r = run_session(*source, options, stop);
   ASSERT_EQ(r.exit_code, ExitCode::kOk) << r.error;
   EXPECT_EQ(r.pipeline.counters.frames_processed, 8u);
-  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 8 views.
+  // Frames 0 and 4 by --snapshot-every, frame 7 as the last set: 3 x 9 views.
   std::set<std::string> names;
   for (const auto& e : fs::directory_iterator(snaps)) names.insert(e.path().filename().string());
   std::set<std::string> expected;
-  for (const char* view : {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth",
-                           "orbit"})
+  for (const char* view :
+       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);
-  EXPECT_EQ(r.session.snapshot_files, 24u);
+  EXPECT_EQ(r.session.snapshot_files, 27u);
   for (const std::string& name : expected) {
     const auto [w, h] = png_size(snaps / name);
     EXPECT_EQ(w, 160) << name;
@@ -388,12 +388,14 @@ TEST(ViewStage, AConsumerOfSomeViewsGetsOnlyWhatTheyNeed) {
   std::vector<bool> colour_needed;
   options.on_colour_needed = [&colour_needed](bool needed) { colour_needed.push_back(needed); };
   ViewStage view(options);
-  const auto feed = [&view] {
+  // One view product through `stage`, and what it published.
+  const auto feed_of = [](ViewStage& stage) {
     FrameWork frame;
     frame.view_products = true;
-    EXPECT_TRUE(view.process(frame).is_ok());
-    return view.take_latest();
+    EXPECT_TRUE(stage.process(frame).is_ok());
+    return stage.take_latest();
   };
+  const auto feed = [&] { return feed_of(view); };
   view.set_views({View::kShaded, View::kDepth});
   EXPECT_EQ(colour_needed, std::vector<bool>({false}));
   EXPECT_EQ(feed()->surface, nullptr);  // no orbit viewer: no copy of the cloud
@@ -402,6 +404,12 @@ TEST(ViewStage, AConsumerOfSomeViewsGetsOnlyWhatTheyNeed) {
   EXPECT_NE(feed()->surface, nullptr);
   view.set_views({View::kColour});
   EXPECT_EQ(colour_needed.back(), true);
+  // The splats view draws the same cloud.
+  ViewStage splats(options);
+  splats.set_views({View::kShaded});
+  EXPECT_EQ(feed_of(splats)->surface, nullptr);
+  splats.set_views({View::kSplats});
+  EXPECT_NE(feed_of(splats)->surface, nullptr);
 
   // With a window or snapshots every view is made, whatever set_views() says.
   ViewStageOptions all = window_options();

@@ -1,10 +1,12 @@
 /// @file composite_test.cpp
 /// @brief Exact answers of the CPU composite (the GL reference): grey levels, normal colours,
-/// colour-map stops, no-data pixels, the orbit splatter and the RGB PNG writer.
+/// colour-map stops, no-data pixels, the orbit splatter, the Gaussian splats and the RGB PNG
+/// writer.
 #include "render/composite.h"
 
 #include <png.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -277,8 +279,8 @@ TEST(Composite, ImageScale) {
 
 TEST(Composite, ViewCycle) {
   View v = View::kShaded;
-  const char* expected[] = {"ssao",    "mvao",  "colour", "colour_mvao",
-                            "normals", "depth", "orbit",  "shaded"};
+  const char* expected[] = {"ssao",  "mvao",  "colour", "colour_mvao", "normals",
+                            "depth", "orbit", "splats", "shaded"};
   for (const char* name : expected) {
     v = next_view(v);
     EXPECT_STREQ(view_name(v), name);
@@ -381,7 +383,7 @@ TEST(Composite, ASteppedViewIsTheFullViewsPixelsAtTheStep) {
   EXPECT_EQ(model_scale(f), 2);
   for (int v = 0; v < kViewCount; ++v) {
     const View view = static_cast<View>(v);
-    if (view == View::kOrbit) continue;
+    if (orbit_camera_view(view)) continue;
     Image<Rgb8> full;
     Image<Rgb8> half;
     composite_view(f, view, full);
@@ -396,20 +398,221 @@ TEST(Composite, ASteppedViewIsTheFullViewsPixelsAtTheStep) {
   EXPECT_EQ(model_scale(no_model), 1);
 }
 
-TEST(Composite, OrbitViewOfAFrameUsesItsSurface) {
-  ViewFrame f = testing::sphere_wall_frame(64, 48);
-  Image<Rgb8> out;
-  composite_view(f, View::kOrbit, out);
+TEST(Composite, OrbitViewsOfAFrameUseItsSurface) {
+  for (const View view : {View::kOrbit, View::kSplats}) {
+    ViewFrame f = testing::sphere_wall_frame(64, 48);
+    Image<Rgb8> out;
+    composite_view(f, view, out);
+    int covered = 0;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 64; ++x) covered += out(x, y) != ViewStyle{}.background;
+    EXPECT_EQ(covered, 0) << view_name(view);  // no surface yet
+    f.surface = testing::sphere_points({0, 0, 2}, 0.5f, 40);
+    composite_view(f, view, out);
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 64; ++x) covered += out(x, y) != ViewStyle{}.background;
+    EXPECT_GT(covered, 300) << view_name(view);
+    EXPECT_NE(out(32, 24), ViewStyle{}.background) << view_name(view);  // the sphere's middle
+    // The same image as the view drawn directly from the fitted camera.
+    Image<Rgb8> direct(64, 48);
+    if (view == View::kOrbit)
+      composite_orbit(*f.surface, fit_orbit(*f.surface), direct);
+    else
+      composite_splats(*f.surface, fit_orbit(*f.surface), direct);
+    EXPECT_TRUE(std::equal(out.data(), out.data() + out.size(), direct.data()));
+  }
+}
+
+/// The splats tests' camera: the eye at the origin looking along +z (world y down), a 65 x 49
+/// image whose centre (32.5, 24.5) is the centre of pixel (32, 24).
+OrbitCamera eye_at_origin() {
+  OrbitCamera camera;
+  camera.target_world = {0, 0, 5};
+  camera.distance_m = 5;
+  return camera;
+}
+constexpr int kSplatW = 65;
+constexpr int kSplatH = 49;
+
+/// A style whose splats have world radius `radius_m` on a face-less surface, lit head-on.
+ViewStyle splat_style(float radius_m) {
+  ViewStyle style = head_on_light();
+  style.splat_spacing_m = radius_m;
+  style.splat_radius_per_spacing = 1.0f;
+  return style;
+}
+
+/// The world radius of a splat `r_px` pixels across at eye depth `z_m` for the splats camera.
+float radius_for_pixels(float r_px, float z_m) {
+  Eigen::Matrix4f projection;
+  orbit_clip_from_world(eye_at_origin(), static_cast<float>(kSplatW) / kSplatH, nullptr,
+                        &projection);
+  return r_px * z_m / (projection(1, 1) * 0.5f * static_cast<float>(kSplatH));
+}
+
+TEST(Splats, OneSplatCoversItsDiskWithItsShade) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 5}};  // onto the centre of pixel (32, 24)
+  mesh.quality = {0.6f};
+  const ViewStyle style = splat_style(radius_for_pixels(3.5f, 5.0f));
+  Image<Rgb8> out(kSplatW, kSplatH);
+  composite_splats(mesh, eye_at_origin(), out, style);
+  // The pixels whose centres lie within 3.5 pixels: dx^2 + dy^2 <= 12 (the next are 10 and 13).
   int covered = 0;
-  for (int y = 0; y < 48; ++y)
-    for (int x = 0; x < 64; ++x) covered += out(x, y) != ViewStyle{}.background;
-  EXPECT_EQ(covered, 0);  // no surface yet
-  f.surface = testing::sphere_points({0, 0, 2}, 0.5f, 40);
-  composite_view(f, View::kOrbit, out);
-  for (int y = 0; y < 48; ++y)
-    for (int x = 0; x < 64; ++x) covered += out(x, y) != ViewStyle{}.background;
-  EXPECT_GT(covered, 300);
-  EXPECT_EQ(out(32, 24) == ViewStyle{}.background, false);  // the sphere's middle
+  for (int y = 0; y < kSplatH; ++y)
+    for (int x = 0; x < kSplatW; ++x) {
+      const int dx = x - 32;
+      const int dy = y - 24;
+      const bool inside = dx * dx + dy * dy <= 12;
+      covered += inside;
+      // One splat: sum(w x shade) / sum(w) is its shade, 0.6 x 255 (no normal: no diffuse term).
+      EXPECT_EQ(out(x, y), inside ? (Rgb8{153, 153, 153}) : style.background) << x << "," << y;
+    }
+  EXPECT_EQ(covered, 37);
+  // Twice as far, half the radius (1.75 pixels: dx^2 + dy^2 <= 2, 9 pixels).
+  mesh.vertices = {{0, 0, 10}};
+  composite_splats(mesh, eye_at_origin(), out, style);
+  covered = 0;
+  for (int y = 0; y < kSplatH; ++y)
+    for (int x = 0; x < kSplatW; ++x) covered += out(x, y) != style.background;
+  EXPECT_EQ(covered, 9);
+  EXPECT_EQ(out(33, 25), (Rgb8{153, 153, 153}));
+  EXPECT_EQ(out(34, 24), style.background);
+}
+
+TEST(Splats, RadiusIsClampedToWhatTheScreenCanShow) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 5}};
+  // A splat far below a pixel still covers the pixel under its centre (kSplatMinRadiusPx).
+  Image<Rgb8> out(kSplatW, kSplatH);
+  const ViewStyle tiny = splat_style(radius_for_pixels(0.01f, 5.0f));
+  composite_splats(mesh, eye_at_origin(), out, tiny);
+  int covered = 0;
+  for (int y = 0; y < kSplatH; ++y)
+    for (int x = 0; x < kSplatW; ++x) covered += out(x, y) != tiny.background;
+  EXPECT_EQ(covered, 1);
+  EXPECT_EQ(out(32, 24), (Rgb8{255, 255, 255}));  // no quality: AO 1
+  // A huge one stops at kSplatMaxRadiusPx (64): the whole 65 x 49 image, corners included
+  // (32.5^2 + 24.5^2 < 64^2).
+  const ViewStyle huge = splat_style(radius_for_pixels(500.0f, 5.0f));
+  composite_splats(mesh, eye_at_origin(), out, huge);
+  for (int y = 0; y < kSplatH; ++y)
+    for (int x = 0; x < kSplatW; ++x) EXPECT_EQ(out(x, y), (Rgb8{255, 255, 255}));
+  // With the largest radius, a splat 64 pixels right of the centre (x = 96.5) is clipped by its
+  // centre, as GL clips a point: nothing drawn.
+  Eigen::Matrix4f projection;
+  orbit_clip_from_world(eye_at_origin(), static_cast<float>(kSplatW) / kSplatH, nullptr,
+                        &projection);
+  mesh.vertices = {{64.0f * 5.0f / (projection(0, 0) * 0.5f * kSplatW), 0, 5}};
+  composite_splats(mesh, eye_at_origin(), out, huge);
+  for (int y = 0; y < kSplatH; ++y)
+    for (int x = 0; x < kSplatW; ++x) EXPECT_EQ(out(x, y), huge.background);
+}
+
+TEST(Splats, OverlappingSplatsAtOneDepthBlendToTheWeightedMean) {
+  // Two splats of radius 6 pixels 4 pixels left and right of the image centre (32.5, 24.5), AO
+  // 0.2 and 1.0.
+  const float r_px = 6.0f;
+  Eigen::Matrix4f projection;
+  orbit_clip_from_world(eye_at_origin(), static_cast<float>(kSplatW) / kSplatH, nullptr,
+                        &projection);
+  const float x_m = 4.0f * 5.0f / (projection(0, 0) * 0.5f * kSplatW);
+  TriangleMesh mesh;
+  mesh.vertices = {{-x_m, 0, 5}, {x_m, 0, 5}};
+  mesh.quality = {0.2f, 1.0f};
+  const ViewStyle style = splat_style(radius_for_pixels(r_px, 5.0f));
+  Image<Rgb8> out(kSplatW, kSplatH);
+  composite_splats(mesh, eye_at_origin(), out, style);
+  // Midway (pixel 32) the weights are equal: (0.2 + 1.0) / 2 = 0.6.
+  EXPECT_EQ(out(32, 24), (Rgb8{153, 153, 153}));
+  EXPECT_EQ(out(32, 20), (Rgb8{153, 153, 153}));
+  // Elsewhere the Gaussian-weighted mean, w = exp(-2 d^2 / r^2); alone, each its own shade.
+  for (const int x : {27, 29, 30, 31, 33, 34, 35, 37})
+    for (const int y : {24, 22}) {
+      const double dy = y - 24;
+      const double wa = std::exp(-2.0 * ((x + 4 - 32) * (x + 4 - 32) + dy * dy) / (r_px * r_px));
+      const double wb = std::exp(-2.0 * ((x - 4 - 32) * (x - 4 - 32) + dy * dy) / (r_px * r_px));
+      const double inside_a = (x + 4 - 32) * (x + 4 - 32) + dy * dy < r_px * r_px;
+      const double inside_b = (x - 4 - 32) * (x - 4 - 32) + dy * dy < r_px * r_px;
+      const double grey =
+          255.0 * (inside_a * wa * 0.2 + inside_b * wb * 1.0) / (inside_a * wa + inside_b * wb);
+      // Away from a rounding boundary: the float composite lands on the same level.
+      ASSERT_GT(std::abs(grey - std::floor(grey) - 0.5), 0.01) << x << "," << y;
+      const auto level = static_cast<std::uint8_t>(std::floor(grey + 0.5));
+      EXPECT_EQ(out(x, y), (Rgb8{level, level, level})) << x << "," << y;
+    }
+  EXPECT_EQ(out(27, 24), (Rgb8{51, 51, 51}));  // only the left splat: 0.2
+  EXPECT_EQ(out(37, 24), (Rgb8{255, 255, 255}));
+}
+
+TEST(Splats, OnlySplatsWithinEpsilonOfTheFrontSurfaceBlend) {
+  // Two splats on the axis, AO 0.2 in front and 1.0 behind; epsilon = the world radius R.
+  const float radius_m = radius_for_pixels(4.0f, 5.0f);
+  const ViewStyle style = splat_style(radius_m);
+  Image<Rgb8> out(kSplatW, kSplatH);
+  for (const bool front_first : {true, false}) {
+    for (const float behind_m : {0.5f * radius_m, 2.0f * radius_m}) {
+      TriangleMesh mesh;
+      mesh.vertices = {{0, 0, 5}, {0, 0, 5 + behind_m}};
+      mesh.quality = {0.2f, 1.0f};
+      if (!front_first) {
+        std::swap(mesh.vertices[0], mesh.vertices[1]);
+        std::swap(mesh.quality[0], mesh.quality[1]);
+      }
+      composite_splats(mesh, eye_at_origin(), out, style);
+      // Both centres on pixel (32, 24)'s centre: weight 1 each. Within epsilon they blend to
+      // (0.2 + 1.0) / 2; beyond it the one behind is hidden wherever the front one covers.
+      const bool blended = behind_m < radius_m;
+      EXPECT_EQ(out(32, 24), blended ? (Rgb8{153, 153, 153}) : (Rgb8{51, 51, 51}))
+          << front_first << " " << behind_m;
+      if (!blended) {
+        for (int y = 0; y < kSplatH; ++y)
+          for (int x = 0; x < kSplatW; ++x)
+            if (out(x, y) != style.background) EXPECT_EQ(out(x, y), (Rgb8{51, 51, 51}));
+      }
+    }
+  }
+}
+
+TEST(Splats, ShadeIsTheOrbitViewsAndClippingAsGlPoints) {
+  // A normal facing the head-on light: AO x 1; turned away to cos = 0.8: AO x (a + (1 - a) 0.8).
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 5}};
+  mesh.quality = {0.8f};
+  mesh.normals = {{0, 0, -1}};
+  const ViewStyle style = splat_style(radius_for_pixels(2.0f, 5.0f));
+  Image<Rgb8> splats(kSplatW, kSplatH);
+  Image<Rgb8> points(kSplatW, kSplatH);
+  for (const Eigen::Vector3f& n : {Eigen::Vector3f(0, 0, -1), Eigen::Vector3f(0.6f, 0, -0.8f)}) {
+    mesh.normals = {n};
+    composite_splats(mesh, eye_at_origin(), splats, style);
+    composite_orbit(mesh, eye_at_origin(), points, style);
+    EXPECT_EQ(splats(32, 24), points(32, 24));
+  }
+  EXPECT_EQ(splats(32, 24), (Rgb8{173, 173, 173}));  // 0.8 x (0.25 + 0.75 x 0.8) x 255 = 173.4
+  // Behind the eye: clipped, the background everywhere.
+  mesh.vertices = {{0, 0, -1}};
+  composite_splats(mesh, eye_at_origin(), splats, style);
+  for (int y = 0; y < kSplatH; ++y)
+    for (int x = 0; x < kSplatW; ++x) EXPECT_EQ(splats(x, y), style.background);
+}
+
+TEST(Splats, SpacingIsTheMeanEdgeLengthOrTheStylesWithoutFaces) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {3, 0, 0}, {3, 4, 0}, {0, 0, 1}};
+  ViewStyle style;
+  EXPECT_EQ(mean_edge_length_m(mesh), 0.0f);
+  EXPECT_EQ(surface_spacing_m(mesh, style), style.splat_spacing_m);  // the orbit cloud
+  // One face, edges 3, 4, 5.
+  mesh.faces = {{0, 1, 2}};
+  EXPECT_FLOAT_EQ(mean_edge_length_m(mesh), 4.0f);
+  mesh.faces.push_back({0, 1, 3});  // edges 3, sqrt(10), 1
+  EXPECT_FLOAT_EQ(surface_spacing_m(mesh, style), (12.0f + 4.0f + std::sqrt(10.0f)) / 6.0f);
+  mesh.faces.push_back({0, 1, 7});  // out of range: skipped
+  mesh.faces.push_back({-1, 1, 2});
+  EXPECT_FLOAT_EQ(mean_edge_length_m(mesh), (12.0f + 4.0f + std::sqrt(10.0f)) / 6.0f);
+  mesh.vertices[3] = {kNaN, 0, 0};  // the second face is skipped too
+  EXPECT_FLOAT_EQ(mean_edge_length_m(mesh), 4.0f);
 }
 
 /// Reads an 8-bit RGB PNG with libpng (test-side decoder).

@@ -325,6 +325,110 @@ TEST_F(GlTest, OrbitViewMatchesTheCpuSplatter) {
   EXPECT_GT(covered, 2000u);
 }
 
+/// Two face-less 40 x 40 grids of points 2 cm apart facing -z: at z = 2 m with AO alternating
+/// 0.1 and 1.0 from point to point (a checkerboard: every blended pixel depends on the Gaussian
+/// weights), and, 10 cm behind it and 40 cm to the right, one with AO 0.5 (hidden where the first
+/// covers it, more than a splat radius behind).
+std::shared_ptr<TriangleMesh> checker_and_plane_behind() {
+  auto mesh = std::make_shared<TriangleMesh>();
+  for (int plane = 0; plane < 2; ++plane)
+    for (int i = 0; i < 40; ++i)
+      for (int j = 0; j < 40; ++j) {
+        mesh->vertices.push_back(
+            {-0.4f + 0.02f * i + 0.4f * plane, -0.4f + 0.02f * j, 2.0f + 0.1f * plane});
+        mesh->normals.push_back({0.0f, 0.0f, -1.0f});
+        mesh->quality.push_back(plane == 1 ? 0.5f : (i + j) % 2 == 0 ? 0.1f : 1.0f);
+      }
+  return mesh;
+}
+
+TEST_F(GlTest, SplatsViewMatchesTheCpuComposite) {
+  // Face-less clouds (the style's spacing) and a mesh (its mean edge length), from an angle.
+  ViewStyle sphere_style;
+  sphere_style.splat_spacing_m = 0.03f;  // the sphere's points are about 3 cm apart
+  ViewStyle checker_style;
+  checker_style.splat_spacing_m = 0.02f;
+  struct Case {
+    std::shared_ptr<TriangleMesh> surface;
+    ViewStyle style;
+    bool sphere;
+  };
+  const Case cases[] = {{testing::sphere_points({0.2f, -0.1f, 2.0f}, 0.6f, 60), sphere_style, true},
+                        {testing::sphere_mesh({0.2f, -0.1f, 2.0f}, 0.6f, 40), ViewStyle{}, true},
+                        {checker_and_plane_behind(), checker_style, false}};
+  for (const auto& [surface, style, sphere] : cases) {
+    ViewFrame frame;
+    frame.intrinsics.width = 160;
+    frame.intrinsics.height = 120;
+    frame.surface = surface;
+    OrbitCamera orbit = fit_orbit(*frame.surface);
+    orbit.yaw_rad = 0.4f;
+    orbit.pitch_rad = 0.3f;
+    Image<Rgb8> cpu(160, 120);
+    composite_splats(*frame.surface, orbit, cpu, style);
+    for (const bool view_only : {false, true}) {
+      const Image<Rgb8> gpu = render_gl(frame, View::kSplats, style, orbit, view_only);
+      const Comparison c = compare(cpu, gpu);
+      std::printf("[ info ] splats (%zu points%s)%s matching %.5f, max diff %d\n",
+                  surface->vertices.size(), surface->faces.empty() ? "" : ", faces",
+                  view_only ? " (its data only)" : "", c.matching_share, c.max_diff);
+      EXPECT_GE(c.matching_share, kMinMatchingShare);
+    }
+    if (!sphere) continue;
+    // The sphere is a disk about 55 pixels across (2 400 pixels); the splats leave no holes in a
+    // 30 x 30 square around its centre.
+    std::size_t covered = 0;
+    for (int y = 0; y < 120; ++y)
+      for (int x = 0; x < 160; ++x) covered += cpu(x, y) != style.background;
+    EXPECT_GT(covered, 2400u);
+    const Eigen::Vector4f c =
+        orbit_clip_from_world(orbit, 160.0f / 120.0f) * Eigen::Vector4f(0.2f, -0.1f, 2.0f, 1.0f);
+    const int cx = static_cast<int>((c.x() / c.w() * 0.5f + 0.5f) * 160.0f);
+    const int cy = 119 - static_cast<int>((c.y() / c.w() * 0.5f + 0.5f) * 120.0f);
+    for (int y = cy - 15; y < cy + 15; ++y)
+      for (int x = cx - 15; x < cx + 15; ++x)
+        EXPECT_NE(cpu(x, y), style.background) << x << "," << y;
+  }
+}
+
+TEST_F(GlTest, SplatsViewDrawsIntoItsRectangle) {
+  // Into the middle of a larger target (the sums are read at the rectangle's origin), twice (the
+  // float target is reused), the second time in a smaller rectangle (and resized).
+  ViewFrame frame;
+  frame.intrinsics.width = 160;
+  frame.intrinsics.height = 120;
+  frame.surface = testing::sphere_mesh({0.0f, 0.0f, 2.0f}, 0.5f, 30);
+  const ViewStyle style;
+  const GlApi& gl = window_->gl();
+  GlViewRenderer renderer;
+  GlOffscreenTarget target;
+  make_rig(renderer, target, 200, 150);
+  if (HasFatalFailure()) return;
+  renderer.upload(frame);
+  for (const GlRect rect :
+       {GlRect{30, 20, 160, 120}, GlRect{30, 20, 160, 120}, GlRect{10, 40, 80, 60}}) {
+    target.bind();
+    gl.Viewport(0, 0, 200, 150);
+    gl.ClearColor(1.0f, 0.0f, 0.0f, 1.0f);
+    gl.Clear(GL_COLOR_BUFFER_BIT);
+    const OrbitCamera orbit = fit_orbit(*frame.surface);
+    renderer.draw(View::kSplats, rect, style, orbit);
+    Image<Rgb8> gpu;
+    target.read(gpu);
+    EXPECT_EQ(gl.GetError(), static_cast<GLenum>(GL_NO_ERROR));
+    Image<Rgb8> cpu(rect.width, rect.height);
+    composite_splats(*frame.surface, orbit, cpu, style);
+    Image<Rgb8> inside(rect.width, rect.height);  // the rectangle of the target (rows go down)
+    for (int y = 0; y < rect.height; ++y)
+      for (int x = 0; x < rect.width; ++x)
+        inside(x, y) = gpu(rect.x + x, 150 - rect.y - rect.height + y);
+    const Comparison c = compare(cpu, inside);
+    EXPECT_GE(c.matching_share, kMinMatchingShare) << rect.width;
+    EXPECT_EQ(gpu(rect.x - 1, 75), (Rgb8{255, 0, 0}));  // left of the rectangle: untouched
+    EXPECT_EQ(gpu(199, 0), (Rgb8{255, 0, 0}));
+  }
+}
+
 TEST_F(GlTest, HudOverlayMatchesTheCpuBlend) {
   const ViewFrame frame = testing::sphere_wall_frame(320, 160);
   Image<Rgba8> hud;

@@ -133,4 +133,17 @@ inline std::shared_ptr<TriangleMesh> sphere_points(const Eigen::Vector3f& c, flo
   return mesh;
 }
 
+/// sphere_points() with faces: each latitude band's quads as two triangles (open at the poles).
+inline std::shared_ptr<TriangleMesh> sphere_mesh(const Eigen::Vector3f& c, float r, int n) {
+  std::shared_ptr<TriangleMesh> mesh = sphere_points(c, r, n);
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int a = i * n + j;
+      const int b = i * n + (j + 1) % n;
+      mesh->faces.push_back({a, a + n, b});
+      mesh->faces.push_back({b, a + n, b + n});
+    }
+  return mesh;
+}
+
 }  // namespace aoscan::testing

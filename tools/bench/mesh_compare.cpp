@@ -19,42 +19,16 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 
-#include "core/percentile.h"
 #include "core/status.h"
 #include "fusion/tsdf/marching_cubes.h"
 #include "io/ply.h"
 #include "io/vdb.h"
+#include "median_ms.h"
 #include "pipeline/config.h"
 #include "pipeline/volume_export.h"
 
 namespace aoscan {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-/// Runs every step once per round for `repeat` rounds (so that a change of machine load hits all
-/// steps alike) and returns each step's median time (ms). A step's last result stays in its
-/// captures.
-std::vector<double> median_ms(int repeat, const std::vector<std::function<void()>>& steps) {
-  std::vector<std::vector<double>> times(steps.size());
-  for (int r = 0; r < repeat; ++r) {
-    for (std::size_t s = 0; s < steps.size(); ++s) {
-      const auto start = Clock::now();
-      steps[s]();
-      times[s].push_back(ms_since(start));
-    }
-  }
-  std::vector<double> medians;
-  for (std::vector<double>& t : times) {
-    std::sort(t.begin(), t.end());
-    medians.push_back(nearest_rank(t, 0.5));
-  }
-  return medians;
-}
 
 /// The cells that aoscan's marching cubes meshes: voxel v when v and its 7 neighbours towards +x,
 /// +y, +z are observed with weight >= min_weight (the mask VolumeToMesh gets for a like-for-like
