@@ -69,6 +69,14 @@ std::string write_two_laser_scans(const ScratchDir& dir) {
   return dir.file("set.yaml");
 }
 
+/// Options of a run on write_two_laser_scans()'s manifest into `out` in `dir`.
+ScansOptions two_laser_scans_run(const ScratchDir& dir, const std::string& out) {
+  ScansOptions options;
+  options.inputs = {write_two_laser_scans(dir)};
+  options.out_dir = dir.file(out);
+  return options;
+}
+
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);
   return nlohmann::json::parse(in);
@@ -76,10 +84,7 @@ nlohmann::json read_json(const std::string& path) {
 
 TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
   ScratchDir dir;
-  const std::string manifest = write_two_laser_scans(dir);
-  ScansOptions options;
-  options.inputs = {manifest};
-  options.out_dir = dir.file("out");
+  ScansOptions options = two_laser_scans_run(dir, "out");
   const ScansResult r = run_scans(options);
   ASSERT_EQ(r.scans.size(), 2u);
   EXPECT_TRUE(r.isolated_scans.empty());
@@ -127,10 +132,7 @@ TEST(ScanSet, AManifestOfLaserCloudsGivesEveryPointItsMultiViewAo) {
 
 TEST(ScanSet, AStoppedRunWritesOnlyItsInterruptedStatusAndResumesToTheSameBytes) {
   ScratchDir dir;
-  const std::string manifest = write_two_laser_scans(dir);
-  ScansOptions options;
-  options.inputs = {manifest};
-  options.out_dir = dir.file("whole");
+  ScansOptions options = two_laser_scans_run(dir, "whole");
   run_scans(options);
 
   // Stopped before its first scan: no point cloud, stats.json "interrupted", the scratch folder
@@ -257,10 +259,7 @@ TEST(ScanSet, InputsThatHoldNoScanAreErrors) {
 
 TEST(ScanSet, TheMeshOfTheScansLiesOnTheSurfaceAndTakesTheAoOfItsNearestScanPoints) {
   ScratchDir dir;
-  const std::string manifest = write_two_laser_scans(dir);
-  ScansOptions options;
-  options.inputs = {manifest};
-  options.out_dir = dir.file("out");
+  ScansOptions options = two_laser_scans_run(dir, "out");
   options.show_progress = false;
   options.mesh = true;
   options.config.fusion.voxel_size_m = 0.02;
