@@ -125,12 +125,14 @@ void time_frames(int width, int height) {
         std::printf("timing %-10s stride %d samples %2d: ssao %.2f ms, grid %.2f ms\n",
                     test::estimator_name(e), stride, samples, ssao_ms / reps, grid_ms / reps);
       }
+  // The seed variants as the pipeline runs them: one workspace for every frame.
   for (const auto& [name, c] : seed_variants()) {
     Image<float> ao, w;
+    SsaoWorkspace workspace;
     const int reps = 40;
-    compute_ssao(maps, c, 0, ao, w);  // warm
+    compute_ssao(maps, c, 0, ao, w, workspace);  // warm
     const auto t0 = std::chrono::steady_clock::now();
-    for (int i = 0; i < reps; ++i) compute_ssao(maps, c, i, ao, w);
+    for (int i = 0; i < reps; ++i) compute_ssao(maps, c, i, ao, w, workspace);
     const auto t1 = std::chrono::steady_clock::now();
     std::printf("timing %-40s ssao %.2f ms\n", name.c_str(),
                 std::chrono::duration<double, std::milli>(t1 - t0).count() / reps);
