@@ -48,13 +48,17 @@ void build_table(const PointMaps& maps, const std::vector<std::uint8_t>& layer, 
   const int w = maps.vertices.width();
   const int h = maps.vertices.height();
   const int w1 = w + 1;
-  s.assign(static_cast<std::size_t>(w1) * (h + 1), Eigen::Vector4d::Zero());
+  // Every entry is written below but the first row and column, which stay zero: no clearing of
+  // the whole table each frame.
+  s.resize(static_cast<std::size_t>(w1) * (h + 1));
+  std::fill(s.begin(), s.begin() + w1, Eigen::Vector4d::Zero());
   const Eigen::Vector3f* verts = maps.vertices.data();
   for (int y = 0; y < h; ++y) {
     Eigen::Vector4d running = Eigen::Vector4d::Zero();
     const std::size_t in = static_cast<std::size_t>(y) * w;
     const Eigen::Vector4d* above = s.data() + static_cast<std::size_t>(y) * w1;
     Eigen::Vector4d* out = s.data() + static_cast<std::size_t>(y + 1) * w1;
+    out[0] = Eigen::Vector4d::Zero();
     for (int x = 0; x < w; ++x) {
       const std::uint8_t code = layer[in + x];
       if (code != kInvalid && member(code)) {
