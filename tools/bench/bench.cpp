@@ -139,8 +139,7 @@ int run_chain(const BenchRun& run) {
     if (all.empty()) {
       all = std::move(result.stages);
     } else {
-      for (std::size_t s = 0; s < all.size(); ++s)
-        for (double ms : result.stages[s].samples_ms()) all[s].add_ms(ms);
+      for (std::size_t s = 0; s < all.size(); ++s) all[s].merge(result.stages[s]);
     }
     wall_s += result.wall_s;
     frames += result.counters.frames_processed;
