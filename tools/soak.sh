@@ -9,7 +9,8 @@
 #        tools/soak.sh --summary DIR      (the summary again, from DIR's samples)
 #   --minutes M   minutes of frames at the recording's rate (default 60)
 #   --source DIR  a TUM-layout recording (default ../shared/data/7scenes-redkitchen; the run is
-#                 skipped with a message, exit 0, when it is absent)
+#                 skipped with a message, exit 0, when it is absent), or a synth: spec, recorded
+#                 into OUT/source first (a scene with exact poses in its groundtruth.txt)
 #   --build DIR   a build folder; configured (Release) and aoscan built in it when needed
 #                 (default build)
 #   --out DIR     samples.csv, aoscan.log (progress lines) and the replay's outputs in run/
@@ -35,7 +36,7 @@ while [[ $# -gt 0 ]]; do
     --out) out_dir="$2"; shift 2 ;;
     --sample) sample_s="$2"; shift 2 ;;
     --summary) summary_only="$2"; shift 2 ;;
-    -h|--help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,21p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "soak: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -114,14 +115,28 @@ if [[ -n "$summary_only" ]]; then
   exit 0
 fi
 
-if [[ ! -f "$source_dir/depth.txt" ]]; then
-  echo "soak: skipped: no recording at $source_dir (give one with --source DIR)"
-  exit 0
-fi
 if [[ ! -x "$build_dir/aoscan" ]]; then
   cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release > /dev/null
 fi
 cmake --build "$build_dir" --target aoscan -j "$(nproc)" > /dev/null
+
+mkdir -p "$out_dir"
+if [[ "$source_dir" == synth:* ]]; then
+  # A synthetic scene is recorded once (its frames rendered ahead, so that the replay's capture
+  # costs what a recording's does) and looped like one; kept for the next run of the same spec.
+  spec="$source_dir"
+  source_dir="$out_dir/source"
+  if [[ "$(cat "$source_dir/spec.txt" 2> /dev/null)" != "$spec" ]]; then
+    rm -rf "$source_dir"
+    echo "soak: recording $spec into $source_dir"
+    "$build_dir/aoscan" record "$spec" "$source_dir" > /dev/null
+    echo "$spec" > "$source_dir/spec.txt"
+  fi
+fi
+if [[ ! -f "$source_dir/depth.txt" ]]; then
+  echo "soak: skipped: no recording at $source_dir (give one with --source DIR)"
+  exit 0
+fi
 
 # Frames per pass and the pass's length at the recorded rate (a pass of n frames spans n times
 # the mean spacing: the turn adds one spacing).
@@ -131,7 +146,6 @@ read -r rate pass_s passes < <(awk -v n="$frames" -v f="$first" -v l="$last" -v 
   'BEGIN { d = (n > 1 && l > f) ? (l - f) / (n - 1) : 1 / 30; p = n * d;
            k = int(m * 60 / p); if (k * p < m * 60) k++; print 1 / d, p, k }')
 
-mkdir -p "$out_dir"
 rm -rf "$out_dir/run"
 printf '{"source": "%s", "frames": %s, "rate_hz": %s, "pass_s": %s, "passes": %s, "minutes": %s}\n' \
   "$source_dir" "$frames" "$rate" "$pass_s" "$passes" "$minutes" > "$out_dir/meta.json"
