@@ -13,6 +13,7 @@
 #include "core/mesh.h"
 #include "core/pose.h"
 #include "geometry/point_maps.h"
+#include "render/composite.h"
 
 namespace aoscan {
 
@@ -28,7 +29,7 @@ void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world
                 Image<float>& out, const Image<std::uint32_t>* slots = nullptr);
 
 struct SurfaceCloudOptions {
-  double voxel_m = 0.01;            ///< one point per voxel of this side (metres)
+  double voxel_m = kSurfaceCloudSpacingM;  ///< one point per voxel of this side (metres)
   int pixel_step = 4;               ///< sample every pixel_step-th pixel in x and y
   std::size_t max_points = 400000;  ///< points beyond this are not added (memory bound)
 };

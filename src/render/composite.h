@@ -45,6 +45,11 @@
 
 namespace aoscan {
 
+/// Point spacing of the live orbit view's surface cloud (m): one point per voxel of this side
+/// (SurfaceCloudOptions::voxel_m of the view stage, and the splats' spacing for a cloud without
+/// faces, ViewStyle::splat_spacing_m).
+inline constexpr double kSurfaceCloudSpacingM = 0.01;
+
 /// Shading constants shared by the CPU composite and the shaders (passed as uniforms).
 struct ViewStyle {
   float ambient = 0.25f;  ///< diffuse floor of the shaded views, in [0, 1]
@@ -55,10 +60,9 @@ struct ViewStyle {
   float depth_max_m = 4.5f;  ///< depth colour map: last stop (m)
   Rgb8 background{24, 24, 32};
   float point_size_px = 2.0f;  ///< orbit view: side of each vertex's square (pixels)
-  /// Splats view: the point spacing of a surface without faces (m). The view stage's orbit cloud
-  /// keeps one point per 1 cm voxel (SurfaceCloudOptions::voxel_m); a mesh with faces uses its
-  /// mean edge length instead (surface_spacing_m).
-  float splat_spacing_m = 0.01f;
+  /// Splats view: the point spacing of a surface without faces (m), the view stage's orbit cloud;
+  /// a mesh with faces uses its mean edge length instead (surface_spacing_m).
+  float splat_spacing_m = static_cast<float>(kSurfaceCloudSpacingM);
   /// Splats view: disk radius / point spacing. 1.5: the cloud's points lie anywhere in their
   /// voxels, neighbours up to about two spacings apart; the disks overlap without holes.
   float splat_radius_per_spacing = 1.5f;

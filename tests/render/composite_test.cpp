@@ -568,7 +568,9 @@ TEST(Splats, OnlySplatsWithinEpsilonOfTheFrontSurfaceBlend) {
       if (!blended) {
         for (int y = 0; y < kSplatH; ++y)
           for (int x = 0; x < kSplatW; ++x)
-            if (out(x, y) != style.background) EXPECT_EQ(out(x, y), (Rgb8{51, 51, 51}));
+            if (out(x, y) != style.background) {
+              EXPECT_EQ(out(x, y), (Rgb8{51, 51, 51}));
+            }
       }
     }
   }
