@@ -115,6 +115,10 @@ if [[ -n "$summary_only" ]]; then
   exit 0
 fi
 
+if [[ "$source_dir" != synth:* && ! -f "$source_dir/depth.txt" ]]; then
+  echo "soak: skipped: no recording at $source_dir (give one with --source DIR)"
+  exit 0
+fi
 if [[ ! -x "$build_dir/aoscan" ]]; then
   cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release > /dev/null
 fi
@@ -132,10 +136,6 @@ if [[ "$source_dir" == synth:* ]]; then
     "$build_dir/aoscan" record "$spec" "$source_dir" > /dev/null
     echo "$spec" > "$source_dir/spec.txt"
   fi
-fi
-if [[ ! -f "$source_dir/depth.txt" ]]; then
-  echo "soak: skipped: no recording at $source_dir (give one with --source DIR)"
-  exit 0
 fi
 
 # Frames per pass and the pass's length at the recorded rate (a pass of n frames spans n times
