@@ -59,16 +59,6 @@ void ReplayPacer::wait_for(double timestamp_s, const std::atomic<bool>& stop) {
   }
 }
 
-std::optional<std::string> TimestampOrder::out_of_order(const Source& source,
-                                                        const DepthFrame& frame) {
-  if (source.live()) return std::nullopt;
-  if (last_s_ && !(frame.timestamp_s > *last_s_))
-    return source.name() + " (frame " + std::to_string(frame.sequence) + "): timestamp " +
-           std::to_string(frame.timestamp_s) + " does not follow " + std::to_string(*last_s_);
-  last_s_ = frame.timestamp_s;
-  return std::nullopt;
-}
-
 void finish_result(const ChainState& state, std::vector<std::size_t> dropped_at,
                    PipelineResult& result) {
   result.status = state.failed() ? state.first_error() : Status::ok();

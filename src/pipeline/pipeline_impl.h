@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "capture/read_status.h"
+#include "capture/timestamp_order.h"
 #include "pipeline/bounded_queue.h"
 #include "pipeline/frame_pool.h"
 #include "pipeline/pipeline.h"
@@ -69,18 +70,6 @@ class ReplayPacer {
  private:
   std::optional<double> first_timestamp_;
   Clock::time_point start_;
-};
-
-/// Keeps a recording's timestamps increasing: trajectory.txt is keyed by them, and pacing by them
-/// would stall. Camera clocks may wrap, so live sources are not checked.
-class TimestampOrder {
- public:
-  /// Why `frame` (just read from `source`) repeats or goes back in time, naming the source and
-  /// frame; nullopt when it follows the last frame that did, and then it becomes that frame.
-  std::optional<std::string> out_of_order(const Source& source, const DepthFrame& frame);
-
- private:
-  std::optional<double> last_s_;
 };
 
 template <typename Frame>
