@@ -85,6 +85,10 @@ ExitCode run_record(const RecordArgs& args, const std::atomic<bool>& stop_reques
   if (stats.frames_corrupt > 0)
     std::fprintf(stderr, " (%zu unreadable skipped)", stats.frames_corrupt);
   std::fputc('\n', stderr);
+  if (stats.frames_out_of_order > 0)
+    std::fprintf(stderr,
+                 "aoscan: warning: %zu frames dropped: their timestamps repeat or go back in time\n",
+                 stats.frames_out_of_order);
   if (stats.frames_dropped > 0)
     std::fprintf(stderr,
                  "aoscan: warning: %zu frames dropped: the disk could not keep up with %s\n",

@@ -14,6 +14,7 @@
 #include "capture/output_file.h"
 #include "capture/png_depth.h"
 #include "capture/read_status.h"
+#include "capture/timestamp_order.h"
 #include "io/camera_json.h"
 #include "io/colour_image.h"
 #include "io/ply.h"
@@ -58,6 +59,7 @@ RecordStats record_source(Source& source, const std::string& dir,
   std::string png_path;
   char name[64];
   std::optional<std::uint64_t> last_sequence;
+  TimestampOrder order;
 
   // Ends the recording: files closed (and checked) before the caller sees the outcome.
   auto finish = [&] {
@@ -73,6 +75,12 @@ RecordStats record_source(Source& source, const std::string& dir,
                                              stats.stopped_by);
     if (step == ReadStep::kStop) break;
     if (step == ReadStep::kSkip) continue;
+    if (const std::optional<std::string> why = order.out_of_order(source, frame)) {
+      if (stats.frames_out_of_order++ == 0)
+        spdlog::warn("{}: frame dropped, as is every frame whose timestamp repeats or goes back",
+                     *why);
+      continue;
+    }
 
     // The recording holds one calibration: the first frame may set it, later ones must match.
     const bool consistent_size = frame.depth.width() == frame.intrinsics.width &&

@@ -15,6 +15,8 @@ namespace aoscan {
 struct RecordStats {
   std::size_t frames_written = 0;  ///< frames stored in the folder
   std::size_t frames_corrupt = 0;  ///< corrupt frames the source reported (skipped)
+  /// A recording's frames whose timestamps repeat or go back (dropped, as a replay drops them).
+  std::size_t frames_out_of_order = 0;
   std::size_t frames_dropped =
       0;  ///< live recording only: frames lost because the disk fell behind
   /// The source's error that ended the recording (bad input, device lost, internal), after every
@@ -31,7 +33,9 @@ struct RecordStats {
 /// - scene.ply: source.scene_mesh() when the source has one.
 /// Each frame's PNG is complete before its depth.txt and groundtruth.txt lines are flushed, so the
 /// folder is a valid recording at any moment. Corrupt frames are skipped and counted; frames whose
-/// calibration differs from camera.json's are counted as corrupt too. A bad_input / device_lost /
+/// calibration differs from camera.json's are counted as corrupt too; a recording's frames whose
+/// timestamps repeat or go back are dropped and counted (TimestampOrder; the first is logged), so
+/// the new recording's timestamps increase. A bad_input / device_lost /
 /// internal status ends the recording: the files are closed and the status is returned in
 /// `stopped_by` (throw_for_status() turns it into the matching Error), or thrown when no frame
 /// could be written. Throws usage_error when `dir` already holds a depth.txt, Error (exit code 1)

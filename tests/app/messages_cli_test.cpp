@@ -143,6 +143,42 @@ TEST(CliMessages, RepeatedOrBackwardTimestampsAreCountedAndDropped) {
   EXPECT_NE(error_line(strict).find("(frame 2): timestamp"), std::string::npos) << strict.err;
 }
 
+TEST(CliMessages, RecordingARecordingDropsRepeatedOrBackwardTimestampsAsAReplayDoes) {
+  aoscan::testing::ScratchDir scratch;
+  const fs::path dir = scratch.folder("record_stamps");
+  const fs::path rec = make_recording(dir);
+  set_timestamps(rec, {"1.0", "1.1", "1.1", "1.05", "1.2", "1.3"});
+  const fs::path copy = dir / "copy";
+  const CliRun r = run_aoscan("record " + quote(rec.string()) + " " + quote(copy.string()), dir);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("(frame 2): timestamp 1.100000 does not follow 1.100000"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("recorded 4 frames"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("2 frames dropped: their timestamps repeat or go back"), std::string::npos)
+      << r.err;
+  // The copy's depth.txt lists the four frames in increasing time, each with its image.
+  std::istringstream list(read_text(copy / "depth.txt"));
+  std::vector<double> stamps;
+  for (std::string line; std::getline(list, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    double t = 0;
+    std::string name;
+    fields >> t >> name;
+    stamps.push_back(t);
+    EXPECT_TRUE(fs::is_regular_file(copy / name)) << name;
+  }
+  EXPECT_EQ(stamps, (std::vector<double>{1.0, 1.1, 1.2, 1.3}));
+  // Replaying the copy drops nothing.
+  const fs::path out = dir / "out";
+  const CliRun replay = run_aoscan(
+      "replay " + quote(copy.string()) + " --headless --out " + quote(out.string()), dir);
+  EXPECT_EQ(replay.exit_code, 0) << replay.err;
+  EXPECT_EQ(read_stats(out)["frames_out_of_order"], 0);
+  EXPECT_EQ(read_stats(out)["frames_processed"], 4);
+}
+
 TEST(CliMessages, CalibrationAndItsOriginAreLoggedAndRecorded) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("calibration");
