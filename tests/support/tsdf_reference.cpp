@@ -250,5 +250,15 @@ TriangleMesh extract_mesh_reference(const TsdfVolume& volume, float min_weight) 
   return mesh;
 }
 
+ColourIntegrateStats colour_pass_after(ColourVolume& colour, const TsdfVolume& volume,
+                                       const std::vector<int>& blocks,
+                                       const ColourFrameInput& input) {
+  ColourIntegration pass(colour, input);
+  if (!input.T_world_camera.finite() || blocks.empty() || input.colour->empty()) return {};
+  pass.begin(volume, blocks);
+  for (std::size_t k = 0; k < blocks.size(); ++k) pass.visit(volume, k);
+  return pass.finish();
+}
+
 }  // namespace test
 }  // namespace aoscan

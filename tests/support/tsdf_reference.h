@@ -8,6 +8,7 @@
 #include "core/intrinsics.h"
 #include "core/mesh.h"
 #include "core/pose.h"
+#include "fusion/tsdf/colour_volume.h"
 #include "fusion/tsdf/tsdf_config.h"
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
@@ -34,6 +35,14 @@ void raycast_reference(const TsdfVolume& volume, const Intrinsics& intrinsics,
 /// Plain reference of extract_mesh(): one serial pass over all cubes, vertices shared through a
 /// map keyed by grid edge. Same vertices and triangles, in a different order.
 TriangleMesh extract_mesh_reference(const TsdfVolume& volume, float min_weight);
+
+/// Plain reference of the colour fused inside TsdfIntegrator::integrate() (ColourIntegration as
+/// its block visitor): the same per-block pass run after the depth integration, over `blocks`
+/// (the blocks it updated) one after another. Throws like ColourIntegration's constructor; a
+/// pose that is not finite, no block or no colour image colours nothing.
+ColourIntegrateStats colour_pass_after(ColourVolume& colour, const TsdfVolume& volume,
+                                       const std::vector<int>& blocks,
+                                       const ColourFrameInput& input);
 
 }  // namespace test
 }  // namespace aoscan

@@ -10,9 +10,6 @@
 #include <xmmintrin.h>
 #endif
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "core/status.h"
 
 static_assert(aoscan::kBlockSize == 8, "colour sampling finds blocks by shifts of 3 bits");
@@ -182,25 +179,6 @@ ColourIntegrateStats ColourIntegration::finish() {
   }
   colour_.allocated_ += static_cast<std::size_t>(stats.blocks_allocated);
   return stats;
-}
-
-ColourIntegrateStats ColourVolume::integrate(const TsdfVolume& volume,
-                                             const std::vector<int>& blocks,
-                                             const Image<float>& depth_m,
-                                             const Intrinsics& depth_intrinsics,
-                                             const Pose& T_world_camera,
-                                             const Image<Rgb8>& colour, const ColourCamera& camera,
-                                             float shell_m, float band_m, int max_weight) {
-  ColourIntegration frame(*this, {&depth_m, depth_intrinsics, T_world_camera, &colour, camera,
-                                  shell_m, band_m, max_weight});
-  if (!T_world_camera.finite() || blocks.empty() || colour.empty()) return {};
-  frame.begin(volume, blocks);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 8),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t k = range.begin(); k != range.end(); ++k)
-                        frame.visit(volume, k);
-                    });
-  return frame.finish();
 }
 
 const ColourVoxel* ColourVolume::coloured_voxel(const TsdfVolume& volume,

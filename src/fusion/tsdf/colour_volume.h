@@ -33,7 +33,7 @@ struct ColourBlock {
   std::array<ColourVoxel, kBlockVoxels> voxels;
 };
 
-/// What one integrate() call did.
+/// What one frame's colour integration did.
 struct ColourIntegrateStats {
   int voxels_coloured = 0;   ///< voxels that took a colour sample
   int blocks_allocated = 0;  ///< colour blocks newly allocated
@@ -43,7 +43,7 @@ class ColourVolume;
 
 /// What a colour frame is fused with: the colour image seen by `camera` (the colour camera of
 /// the depth camera at T_world_camera), the depth frame (size = depth_intrinsics), the shell and
-/// band of ColourVolume::integrate() and the weight cap.
+/// band (ColourIntegration) and the weight cap.
 struct ColourFrameInput {
   const Image<float>* depth_m = nullptr;
   Intrinsics depth_intrinsics;
@@ -55,10 +55,15 @@ struct ColourFrameInput {
   int max_weight = 1;
 };
 
-/// One frame's colour integration into a ColourVolume, block by block. As the BlockVisitor of
-/// TsdfIntegrator::integrate() it colours each block right after the block's depth update, while
-/// its voxels and the depth pixels they project to are still in the cache; the result is the same
-/// as ColourVolume::integrate() over the updated blocks afterwards.
+/// One frame's colour integration into a ColourVolume, block by block, as the BlockVisitor of
+/// TsdfIntegrator::integrate(): it colours each block right after the block's depth update, while
+/// its voxels and the depth pixels they project to are still in the cache. A voxel of the fused
+/// surface's shell (|fused TSDF| <= shell_m: the voxels a mesh vertex samples) takes the colour at
+/// its projection when the depth frame saw a surface within band_m of it along its ray
+/// (|depth(pixel) - z| <= band_m at its depth pixel), and its colour becomes the running mean, its
+/// weight capped at max_weight. The colour is sampled bilinearly (a registered camera: the voxel's
+/// depth pixel itself). Blocks are visited on the integrator's threads; the result does not depend
+/// on the thread count or the order of the blocks.
 class ColourIntegration final : public BlockVisitor {
  public:
   /// Throws usage_error when the colour image's size differs from the camera's or the depth's
@@ -84,25 +89,10 @@ class ColourIntegration final : public BlockVisitor {
   int shell_q_ = -1;  ///< |tsdf_q| <= shell_q_: the voxel lies in the shell
 };
 
-/// Colour of a TsdfVolume's voxels. One writer (integrate(), reset()), any number of readers
+/// Colour of a TsdfVolume's voxels. One writer (a ColourIntegration, reset()), any number of readers
 /// between writes, like the volume.
 class ColourVolume {
  public:
-  /// Fuses `colour` (seen by `camera`, the colour camera of the depth camera at T_world_camera)
-  /// into the voxels of `blocks` (indices of `volume`'s blocks, e.g. those the depth frame just
-  /// updated): a voxel of the fused surface's shell (|fused TSDF| <= shell_m: the voxels a mesh
-  /// vertex samples) takes the colour at its projection when the depth frame saw a surface within
-  /// `band_m` of it along its ray (|depth(pixel) - z| <= band_m at its depth pixel), and its colour
-  /// becomes the running mean, its weight capped at `max_weight`. The colour is sampled
-  /// bilinearly (a registered camera: the voxel's depth pixel itself). Multi-threaded over blocks;
-  /// the result does not depend on the thread count. Throws usage_error when the colour image's
-  /// size differs from the camera's or the depth's from `depth_intrinsics`.
-  ColourIntegrateStats integrate(const TsdfVolume& volume, const std::vector<int>& blocks,
-                                 const Image<float>& depth_m, const Intrinsics& depth_intrinsics,
-                                 const Pose& T_world_camera, const Image<Rgb8>& colour,
-                                 const ColourCamera& camera, float shell_m, float band_m,
-                                 int max_weight);
-
   /// The colour at world point `p` (metres): the mean of the coloured voxels among the eight
   /// around it, each weighted by its trilinear weight; when none of them is coloured, the nearest
   /// coloured voxel of the 4^3 around it within sqrt(3.5) voxels; false when there is none.

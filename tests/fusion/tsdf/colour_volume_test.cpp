@@ -14,6 +14,7 @@
 #include "core/status.h"
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "support/test_scenes.h"
+#include "support/tsdf_reference.h"
 
 namespace aoscan {
 namespace {
@@ -52,10 +53,11 @@ void fuse(Fused& f, const ColourCamera& camera, const Image<Rgb8>& image, int ma
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), kPlaneZ});
   test::render(scene, kDepth, Pose::identity(), f.depth);
-  f.integrator.integrate(f.volume, f.depth, kDepth, Pose::identity());
-  f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
-                     image, camera, 2.0f * f.volume.voxel_size_m(),
-                     f.volume.truncation_m(), max_weight);
+  ColourIntegration visitor(f.colour, {&f.depth, kDepth, Pose::identity(), &image, camera,
+                                      2.0f * f.volume.voxel_size_m(), f.volume.truncation_m(),
+                                      max_weight});
+  f.integrator.integrate(f.volume, f.depth, kDepth, Pose::identity(), &visitor);
+  visitor.finish();
 }
 
 /// Every coloured voxel more than `margin` from the colour boundary x = 0 has the scene's colour.
@@ -130,16 +132,12 @@ TEST(ColourVolume, RunningMeanWithCappedWeight) {
   Rgb8 out;
   ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
   EXPECT_EQ(out, (Rgb8{100, 100, 100}));
-  // Weight 1 and 1 more: the mean of the two.
-  f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
-                     white, camera, 2.0f * f.volume.voxel_size_m(),
-                     f.volume.truncation_m(), 2);
+  // Weight 1 and one more frame (of the same depth): the mean of the two.
+  fuse(f, camera, white, 2);
   ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
   EXPECT_EQ(out, (Rgb8{150, 150, 150}));
   // The cap of 2: (150 * 2 + 200) / 3.
-  f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, Pose::identity(),
-                     white, camera, 2.0f * f.volume.voxel_size_m(),
-                     f.volume.truncation_m(), 2);
+  fuse(f, camera, white, 2);
   ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(0.1f, 0.1f, kPlaneZ), out));
   EXPECT_EQ(out, (Rgb8{167, 167, 167}));
 }
@@ -184,7 +182,8 @@ TEST(ColourVolume, SameColourForOneAndTwoThreads) {
 }
 
 // The colour fused inside the depth integration (ColourIntegration as the integrator's block
-// visitor, what Reconstruction does) against the plain pass over the updated blocks afterwards:
+// visitor, what Reconstruction does) against the plain pass over the updated blocks afterwards,
+// one block after another (test::colour_pass_after):
 // the same colour blocks byte for byte, frame after frame, for a camera that moves over a sphere
 // in front of a wall and an unregistered colour camera with a textured image.
 TEST(ColourVolume, FusedInsideTheDepthIntegrationEqualsThePassAfterIt) {
@@ -216,9 +215,9 @@ TEST(ColourVolume, FusedInsideTheDepthIntegrationEqualsThePassAfterIt) {
     fused_integrator.integrate(fused_volume, depth, kDepth, T_world_camera, &visitor);
     const ColourIntegrateStats a = visitor.finish();
     plain_integrator.integrate(plain_volume, depth, kDepth, T_world_camera);
-    const ColourIntegrateStats b =
-        plain.integrate(plain_volume, plain_integrator.updated_blocks(), depth, kDepth,
-                        T_world_camera, image, camera, shell, plain_volume.truncation_m(), 8);
+    const ColourIntegrateStats b = test::colour_pass_after(
+        plain, plain_volume, plain_integrator.updated_blocks(),
+        {&depth, kDepth, T_world_camera, &image, camera, shell, plain_volume.truncation_m(), 8});
     ASSERT_GT(a.voxels_coloured, 1000) << "frame " << frame;
     EXPECT_EQ(a.voxels_coloured, b.voxels_coloured) << "frame " << frame;
     EXPECT_EQ(a.blocks_allocated, b.blocks_allocated) << "frame " << frame;
@@ -243,23 +242,23 @@ TEST(ColourVolume, FusedInsideTheDepthIntegrationEqualsThePassAfterIt) {
 TEST(ColourVolume, BadInputIsRefusedOrIgnored) {
   Fused f;
   const ColourCamera camera = ColourCamera::registered_to(kDepth);
-  fuse(f, camera, render_colour(camera));
+  const Image<Rgb8> image = render_colour(camera);
+  fuse(f, camera, image);
   const std::size_t blocks = f.colour.block_count();
   const Image<Rgb8> small(320, 240);
-  EXPECT_THROW(f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth,
-                                  Pose::identity(), small, camera, 0.01f, 0.02f, 16),
+  EXPECT_THROW(ColourIntegration(f.colour, {&f.depth, kDepth, Pose::identity(), &small, camera,
+                                            0.01f, 0.02f, 16}),
                Error);
   const Image<float> small_depth(320, 240, 1.0f);
-  EXPECT_THROW(f.colour.integrate(f.volume, f.integrator.updated_blocks(), small_depth, kDepth,
-                                  Pose::identity(), render_colour(camera), camera, 0.01f, 0.02f, 16),
+  EXPECT_THROW(ColourIntegration(f.colour, {&small_depth, kDepth, Pose::identity(), &image, camera,
+                                            0.01f, 0.02f, 16}),
                Error);
-  // A pose that is not finite changes nothing.
+  // A pose that is not finite is not integrated, and changes no colour.
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const Pose bad(Eigen::Matrix3d::Identity(), Eigen::Vector3d(nan, 0.0, 0.0));
-  const ColourIntegrateStats stats =
-      f.colour.integrate(f.volume, f.integrator.updated_blocks(), f.depth, kDepth, bad,
-                         render_colour(camera), camera, 0.01f, 0.02f, 16);
-  EXPECT_EQ(stats.voxels_coloured, 0);
+  ColourIntegration visitor(f.colour, {&f.depth, kDepth, bad, &image, camera, 0.01f, 0.02f, 16});
+  f.integrator.integrate(f.volume, f.depth, kDepth, bad, &visitor);
+  EXPECT_EQ(visitor.finish().voxels_coloured, 0);
   EXPECT_EQ(f.colour.block_count(), blocks);
   f.colour.reset();
   EXPECT_EQ(f.colour.block_count(), 0u);
