@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/checked_close.h"
 #include "core/status.h"
 #include "io/atomic_write.h"
 #include "io/tokens.h"
@@ -263,10 +264,9 @@ void PlyWriter::finish() {
     throw usage_error(path_ + ": " + std::to_string(vertices_left_) + " vertices and " +
                       std::to_string(faces_left_) + " faces fewer than the header says");
   flush();
-  ok_ = std::ferror(file_) == 0 && ok_;
-  const bool closed = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!closed || !ok_) throw_write_failed(path_);
+  const bool written = ok_;
+  close_checked(file_, path_);  // a short write also set the file's error indicator
+  if (!written) throw_write_failed(path_);
 }
 
 namespace {

@@ -1,11 +1,7 @@
 // End-to-end tests of `--save-volume` through the aoscan executable: volume.vdb as OpenVDB reads
 // it, determinism, the voxel size option and one-line errors for an unusable output path.
-#include <sys/wait.h>
-
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -14,44 +10,23 @@
 #include <openvdb/tools/Count.h>
 #include <nlohmann/json.hpp>
 
+#include "support/cli_util.h"
 #include "support/scratch_dir.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliResult {
-  int exit_code = -1;
-  std::string err;
-};
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quote(const std::string& s) {
-  return "'" + s + "'";
-}
-
-CliResult run_cli(const std::string& args, const fs::path& scratch) {
-  const fs::path err = scratch / "stderr.txt";
-  const std::string cmd = std::string(AOSCAN_BINARY) + " " + args + " > /dev/null 2> " +
-                          quote(err.string()) + " < /dev/null";
-  const int status = std::system(cmd.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.err = read_text(err);
-  return r;
-}
+using aoscan::testing::CliRun;
+using aoscan::testing::quote;
+using aoscan::testing::read_text;
+using aoscan::testing::run_aoscan;
 
 /// A short synthetic recording (12 frames of 80x60 with Kinect noise).
 fs::path make_recording(const fs::path& dir) {
   const fs::path rec = dir / "rec";
-  const CliResult r =
-      run_cli("record " + quote("synth:corner?frames=12&width=80&height=60&noise=kinect") + " " +
+  const CliRun r =
+      run_aoscan("record " + quote("synth:corner?frames=12&width=80&height=60&noise=kinect") + " " +
                   quote(rec.string()),
               dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
@@ -68,7 +43,7 @@ TEST(VolumeCli, ReplayWritesAVolumeOpenVdbReads) {
   const fs::path dir = scratch.folder("replay");
   const fs::path rec = make_recording(dir);
   const fs::path out = dir / "out";
-  const CliResult r = run_cli(replay_args(rec, out) + " --save-volume", dir);
+  const CliRun r = run_aoscan(replay_args(rec, out) + " --save-volume", dir);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json stats = nlohmann::json::parse(read_text(out / "stats.json"));
   ASSERT_TRUE(stats.contains("volume"));
@@ -97,13 +72,13 @@ TEST(VolumeCli, ReplayWritesAVolumeOpenVdbReads) {
 
   // Same input, same threads: the same bytes.
   const fs::path again = dir / "again";
-  ASSERT_EQ(run_cli(replay_args(rec, again) + " --save-volume", dir).exit_code, 0);
+  ASSERT_EQ(run_aoscan(replay_args(rec, again) + " --save-volume", dir).exit_code, 0);
   EXPECT_EQ(read_text(out / "volume.vdb"), read_text(again / "volume.vdb"));
 
   // The voxel size follows fusion.voxel_size_m.
   const fs::path coarse = dir / "coarse";
   ASSERT_EQ(
-      run_cli(replay_args(rec, coarse) +
+      run_aoscan(replay_args(rec, coarse) +
                   " --save-volume --set fusion.voxel_size_m=0.02 --set fusion.truncation_m=0.08",
               dir)
           .exit_code,
@@ -115,7 +90,7 @@ TEST(VolumeCli, ReplayWritesAVolumeOpenVdbReads) {
 }
 
 /// Exactly one line on stderr, starting with "aoscan: error:" and naming `needle`.
-void expect_one_line_error(const CliResult& r, const std::string& needle) {
+void expect_one_line_error(const CliRun& r, const std::string& needle) {
   ASSERT_FALSE(r.err.empty());
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
   EXPECT_EQ(r.err.rfind("aoscan: error: ", 0), 0u) << r.err;
@@ -128,18 +103,18 @@ TEST(VolumeCli, UnusableOutputPathExitsTwoWithOneLine) {
   const fs::path rec = make_recording(dir);
   // --out under a regular file.
   std::ofstream(dir / "file") << "x";
-  CliResult r = run_cli(replay_args(rec, dir / "file" / "sub") + " --save-volume", dir);
+  CliRun r = run_aoscan(replay_args(rec, dir / "file" / "sub") + " --save-volume", dir);
   EXPECT_EQ(r.exit_code, 2);
   expect_one_line_error(r, "--out");
   // A folder named volume.vdb in the way: refused before the run, nothing written.
   const fs::path out = dir / "out";
   fs::create_directories(out / "volume.vdb");
-  r = run_cli(replay_args(rec, out) + " --save-volume", dir);
+  r = run_aoscan(replay_args(rec, out) + " --save-volume", dir);
   EXPECT_EQ(r.exit_code, 2);
   expect_one_line_error(r, "volume.vdb");
   EXPECT_FALSE(fs::exists(out / "mesh.ply"));
   // Without --save-volume the same folder is fine.
-  r = run_cli(replay_args(rec, out), dir);
+  r = run_aoscan(replay_args(rec, out), dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
