@@ -2,6 +2,8 @@
 /// @brief Range maps from depth images and point clouds, and their normals.
 #include "geometry/range_map.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -94,9 +96,11 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
   return skipped;
 }
 
-void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px) {
+void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px,
+                               float support_m, int min_points) {
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
   // Each pixel reads only points and writes only its own normal: rows run in parallel.
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
@@ -105,23 +109,52 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_p
         if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f) || !map.has_point(x, y)) continue;
         const Eigen::Vector3f& p = map.points(x, y);
         const float depth = map.camera.depth(p);
-        // Neighbours on the same surface, centred on p for a well-conditioned covariance.
+        int radius = radius_px;
+        if (support_m > 0.0f) {
+          const float pixels = support_m / point_radius(map.camera, depth);
+          if (pixels > static_cast<float>(radius))
+            radius = pixels >= static_cast<float>(max_radius)
+                         ? max_radius
+                         : static_cast<int>(std::ceil(pixels));
+        }
+        // Neighbours on the same surface, centred on p for a well-conditioned covariance; the
+        // window grows ring by ring (ring r: the pixels at Chebyshev distance r).
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
         Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
         int count = 0;
-        for (int dy = -radius_px; dy <= radius_px; ++dy)
-          for (int dx = -radius_px; dx <= radius_px; ++dx) {
-            int sx = x + dx;
-            const int sy = y + dy;
-            if (wrap) sx = ((sx % w) + w) % w;
-            if (sx < 0 || sy < 0 || sx >= w || sy >= h || !map.has_point(sx, sy)) continue;
-            const Eigen::Vector3f& q = map.points(sx, sy);
-            if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) continue;
-            const Eigen::Vector3d d = (q - p).cast<double>();
-            sum += d;
-            outer += d * d.transpose();
-            ++count;
+        const auto add = [&](int dx, int dy) {
+          int sx = x + dx;
+          const int sy = y + dy;
+          if (wrap) sx = ((sx % w) + w) % w;
+          if (sx < 0 || sy < 0 || sx >= w || sy >= h || !map.has_point(sx, sy)) return;
+          const Eigen::Vector3f& q = map.points(sx, sy);
+          if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) return;
+          const Eigen::Vector3d d = (q - p).cast<double>();
+          sum += d;
+          outer += d * d.transpose();
+          ++count;
+        };
+        if (radius <= kDenseNormalRadiusPx) {
+          for (int dy = -radius; dy <= radius; ++dy)
+            for (int dx = -radius; dx <= radius; ++dx) add(dx, dy);
+        } else {  // a wide support: 7 x 7 pixels spread over it, the cost of a 7 x 7 window
+          std::array<int, 2 * kDenseNormalRadiusPx + 1> offsets;
+          for (int i = -kDenseNormalRadiusPx; i <= kDenseNormalRadiusPx; ++i)
+            offsets[static_cast<std::size_t>(i + kDenseNormalRadiusPx)] =
+                static_cast<int>(std::lround(static_cast<double>(i * radius) / kDenseNormalRadiusPx));
+          for (const int dy : offsets)
+            for (const int dx : offsets) add(dx, dy);
+        }
+        for (int r = radius + 1; count < min_points && r <= max_radius; ++r) {
+          for (int d = -r; d <= r; ++d) {
+            add(d, -r);
+            add(d, r);
           }
+          for (int d = -r + 1; d <= r - 1; ++d) {
+            add(-r, d);
+            add(r, d);
+          }
+        }
         if (count < 3) continue;
         const Eigen::Vector3d mean = sum / count;
         const Eigen::Matrix3d covariance = outer / count - mean * mean.transpose();
@@ -135,6 +168,10 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_p
         n = c.normalized();
       }
   });
+}
+
+void compute_scan_normals(RangeMap& map) {
+  compute_range_map_normals(map, 0.05f, 2, kScanNormalSupportM, kScanNormalMinPoints);
 }
 
 float point_radius(const ScanCamera& camera, float depth_m) {

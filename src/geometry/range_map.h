@@ -45,13 +45,32 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
                            const std::vector<Eigen::Vector3f>& normals, RangeMap& map);
 
 /// Normals of the pixels whose normal is zero, by principal component analysis of the points in
-/// the (2 radius_px + 1)^2 window around the pixel (the equirectangular map wraps in azimuth)
-/// whose depth lies within max_jump_ratio times the pixel's depth of its own (the same surface,
-/// not the one across a depth discontinuity): the direction of least spread, oriented toward the
-/// scanner (Hoppe et al. 1992, which the paper uses with 16 nearest points; a 5 x 5 window holds
-/// up to 25). No normal where fewer than three points qualify or they lie on a line. Rows run in
-/// parallel; the result does not depend on the thread count.
-void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int radius_px = 2);
+/// the (2 r + 1)^2 window around the pixel (the equirectangular map wraps in azimuth) whose depth
+/// lies within max_jump_ratio times the pixel's depth of its own (the same surface, not the one
+/// across a depth discontinuity): the direction of least spread, oriented toward the scanner
+/// (Hoppe et al. 1992). r is radius_px, or more where support_m > 0: the pixels within support_m
+/// metres of the point (point_radius() at its depth; past kDenseNormalRadiusPx, 7 x 7 pixels spread
+/// over the window); then, while fewer than min_points points
+/// qualify, one pixel more (the paper uses the 16 nearest points; a map rebuilt from a cloud has
+/// holes between them); r stays within kMaxNormalRadiusPx. No normal where fewer than three points
+/// qualify or they lie on a line. Rows run in parallel; the result does not depend on the thread
+/// count.
+void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int radius_px = 2,
+                               float support_m = 0.0f, int min_points = 0);
+
+/// The largest window radius of compute_range_map_normals() (a 17 x 17 window).
+inline constexpr int kMaxNormalRadiusPx = 8;
+/// compute_range_map_normals() reads every pixel of windows up to this radius (7 x 7); a wider
+/// metric support is read at 7 x 7 pixels spread evenly over it.
+inline constexpr int kDenseNormalRadiusPx = 3;
+
+/// The normals `aoscan scans` gives a scan's points: compute_range_map_normals() over at least
+/// kScanNormalSupportM around each point (a depth camera's noisy frames need more points than a
+/// 5 x 5 window holds; a laser scan's coarser pixels keep their 5 x 5) and at least
+/// kScanNormalMinPoints points.
+void compute_scan_normals(RangeMap& map);
+inline constexpr float kScanNormalSupportM = 0.02f;
+inline constexpr int kScanNormalMinPoints = 16;
 
 /// The radius of the surface patch one pixel of `camera` covers at `depth_m` (metres): the
 /// footprint depth / pixels_per_metre_at_1m(). The rad(p) of Eq. 12's alpha = rad(p_i) / rad(p_ij)

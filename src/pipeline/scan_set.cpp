@@ -625,7 +625,7 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
       largest_need = std::max(largest_need, need);
       const Clock::time_point compute_start = Clock::now();
       RangeMap& map = scan.map;
-      compute_range_map_normals(map);
+      compute_scan_normals(map);
       compute_scan_ssao(map, options.config.ao, pattern_index(map.name), scan.ssao);
       border_distance(map, kMinEdgeRatio, scan.border_px);
       const ScanInfo info = describe_scan(scan, summary.source, summary.skipped);

@@ -10,7 +10,7 @@
 /// (src/pipeline/scan_set.cpp): a depth camera's frame as 16-bit depth through the preprocessing
 /// (range clip, border outliers) into a pinhole range map; a laser scan as its equirectangular
 /// range map, or as a point cloud rasterised into the 2h x h map of Sec. 7; normals from the
-/// points (compute_range_map_normals), the SSAO with the default AoConfig and a sample pattern
+/// points (compute_scan_normals, as `aoscan scans`), the SSAO with the default AoConfig and a sample pattern
 /// keyed by the scan's name, the border distance (min_edge_ratio 0.01); then integrate_scans with
 /// d_min = ao.d_min_m, d_max = the largest depth of the set's points and t_p = 64 px.
 #pragma once
