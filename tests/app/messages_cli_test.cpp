@@ -112,11 +112,17 @@ TEST(CliMessages, ImpossibleCalibrationIsRefusedNamingTheValue) {
   }
 }
 
+/// make_recording() whose third frame repeats the second's timestamp and whose fourth goes back.
+fs::path make_recording_out_of_order(const fs::path& dir) {
+  const fs::path rec = make_recording(dir);
+  set_timestamps(rec, {"1.0", "1.1", "1.1", "1.05", "1.2", "1.3"});
+  return rec;
+}
+
 TEST(CliMessages, RepeatedOrBackwardTimestampsAreCountedAndDropped) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("stamps");
-  const fs::path rec = make_recording(dir);
-  set_timestamps(rec, {"1.0", "1.1", "1.1", "1.05", "1.2", "1.3"});
+  const fs::path rec = make_recording_out_of_order(dir);
   const fs::path out = dir / "out";
   const CliRun r = run_aoscan(
       "replay " + quote(rec.string()) + " --headless --out " + quote(out.string()), dir);
@@ -146,8 +152,7 @@ TEST(CliMessages, RepeatedOrBackwardTimestampsAreCountedAndDropped) {
 TEST(CliMessages, RecordingARecordingDropsRepeatedOrBackwardTimestampsAsAReplayDoes) {
   aoscan::testing::ScratchDir scratch;
   const fs::path dir = scratch.folder("record_stamps");
-  const fs::path rec = make_recording(dir);
-  set_timestamps(rec, {"1.0", "1.1", "1.1", "1.05", "1.2", "1.3"});
+  const fs::path rec = make_recording_out_of_order(dir);
   const fs::path copy = dir / "copy";
   const CliRun r = run_aoscan("record " + quote(rec.string()) + " " + quote(copy.string()), dir);
   EXPECT_EQ(r.exit_code, 0) << r.err;
