@@ -134,14 +134,15 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_p
           outer += d * d.transpose();
           ++count;
         };
-        if (radius <= kDenseNormalRadiusPx) {
+        if (radius <= std::max(radius_px, kDenseNormalRadiusPx)) {
           for (int dy = -radius; dy <= radius; ++dy)
             for (int dx = -radius; dx <= radius; ++dx) add(dx, dy);
-        } else {  // a wide support: 7 x 7 pixels spread over it, the cost of a 7 x 7 window
-          std::array<int, 2 * kDenseNormalRadiusPx + 1> offsets;
-          for (int i = -kDenseNormalRadiusPx; i <= kDenseNormalRadiusPx; ++i)
-            offsets[static_cast<std::size_t>(i + kDenseNormalRadiusPx)] =
-                static_cast<int>(std::lround(static_cast<double>(i * radius) / kDenseNormalRadiusPx));
+        } else {  // a wide metric support: 7 x 7 pixels spread over it, a 7 x 7 window's cost
+          constexpr int k = kDenseNormalRadiusPx;
+          std::array<int, 2 * k + 1> offsets;
+          for (int i = -k; i <= k; ++i)
+            offsets[static_cast<std::size_t>(i + k)] =
+                static_cast<int>(std::lround(static_cast<double>(i * radius) / k));
           for (const int dy : offsets)
             for (const int dx : offsets) add(dx, dy);
         }

@@ -60,8 +60,8 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int 
 
 /// The largest window radius of compute_range_map_normals() (a 17 x 17 window).
 inline constexpr int kMaxNormalRadiusPx = 8;
-/// compute_range_map_normals() reads every pixel of windows up to this radius (7 x 7); a wider
-/// metric support is read at 7 x 7 pixels spread evenly over it.
+/// compute_range_map_normals() reads every pixel of windows up to this radius (7 x 7) or radius_px;
+/// a wider metric support is read at 7 x 7 pixels spread evenly over it.
 inline constexpr int kDenseNormalRadiusPx = 3;
 
 /// The normals `aoscan scans` gives a scan's points: compute_range_map_normals() over at least
