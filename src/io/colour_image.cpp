@@ -50,12 +50,61 @@ void convert(const cv::Mat& image, Image<Rgb8>& out) {
   }
 }
 
+/// The size a JPEG (its first SOF segment) or PNG (its IHDR) says it has, read from its header;
+/// false when the bytes are neither, or the header is cut short.
+bool declared_size(const std::uint8_t* b, std::size_t n, std::uint32_t& width,
+                   std::uint32_t& height) {
+  static const std::uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto be32 = [b](std::size_t at) {
+    return std::uint32_t{b[at]} << 24 | std::uint32_t{b[at + 1]} << 16 |
+           std::uint32_t{b[at + 2]} << 8 | b[at + 3];
+  };
+  if (n >= 24 && std::equal(kPng, kPng + 8, b) && std::equal(b + 12, b + 16, "IHDR")) {
+    width = be32(16);
+    height = be32(20);
+    return true;
+  }
+  if (n < 4 || b[0] != 0xff || b[1] != 0xd8) return false;
+  // JPEG: markers (0xff, fill bytes 0xff, a code) with a 16-bit length after all but the
+  // standalone ones, up to the first start of frame (SOF0-15 but DHT, JPG and DAC). Bytes
+  // between a segment and the next marker are skipped, as libjpeg does (with a warning).
+  std::size_t i = 2;
+  while (i + 1 < n) {
+    while (i < n && b[i] != 0xff) ++i;
+    while (i + 1 < n && b[i + 1] == 0xff) ++i;
+    if (i + 1 >= n) return false;
+    const std::uint8_t code = b[i + 1];
+    i += 2;
+    if (code == 0x01 || (code >= 0xd0 && code <= 0xd8)) continue;  // no length
+    if (code == 0xd9 || code == 0xda || i + 2 > n) return false;    // no frame before the scan
+    const std::size_t length = std::size_t{b[i]} << 8 | b[i + 1];
+    if (code >= 0xc0 && code <= 0xcf && code != 0xc4 && code != 0xc8 && code != 0xcc) {
+      if (length < 7 || i + 7 > n) return false;
+      height = std::uint32_t{b[i + 3]} << 8 | b[i + 4];
+      width = std::uint32_t{b[i + 5]} << 8 | b[i + 6];
+      return true;
+    }
+    if (length < 2) return false;
+    i += length;
+  }
+  return false;
+}
+
 }  // namespace
 
 Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rgb8>& out,
                            const std::string& where) {
   try {
     if (bytes == nullptr || size == 0) return Status::corrupt_frame(where + ": empty colour image");
+    // Refused before the codec sees it: a few hundred bytes of JPEG may declare 65535 x 65535
+    // pixels, which the decoder fills in (seconds and gigabytes for a broken file).
+    std::uint32_t width = 0, height = 0;
+    if (!declared_size(bytes, size, width, height))
+      return Status::corrupt_frame(where + ": not a JPEG or PNG colour image that can be decoded");
+    if (std::uint64_t{width} * height > kMaxColourImagePixels)
+      return Status::corrupt_frame(where + ": declares " + std::to_string(width) + " x " +
+                                   std::to_string(height) + " pixels, more than the " +
+                                   std::to_string(kMaxColourImagePixels) + " a colour image may have");
     const cv::Mat encoded(1, static_cast<int>(std::min<std::size_t>(size, 0x7fffffff)), CV_8UC1,
                           const_cast<std::uint8_t*>(bytes));
     const cv::Mat image = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);

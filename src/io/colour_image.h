@@ -1,6 +1,6 @@
 /// @file colour_image.h
-/// @brief Colour images of recordings (JPEG, PNG and whatever else OpenCV's image codecs
-/// decode) as 8-bit RGB, and the lossless PNG that `record` writes.
+/// @brief Colour images of recordings (JPEG and PNG, through OpenCV's image codecs) as 8-bit
+/// RGB, and the lossless PNG that `record` writes.
 #pragma once
 
 #include <cstddef>
@@ -15,11 +15,17 @@
 
 namespace aoscan {
 
+/// The most pixels a colour image may have: 2^25 (33.5 M, 8192 x 4096; the colour cameras of
+/// depth sensors give up to 4096 x 3072). A file that declares more is refused unread.
+inline constexpr std::uint64_t kMaxColourImagePixels = std::uint64_t{1} << 25;
+
 /// Decodes the image at `path` into `out` as 8-bit RGB, reusing `out`'s allocation (safe to call
 /// from several threads). 8-bit grey is repeated in the three channels; 16-bit images keep
 /// round(v / 257) (the nearest 8-bit value); an alpha channel is dropped. Returns ok, or
 /// corrupt_frame with one line "PATH: reason" (or "PATH (frame N): reason") for a missing or
-/// unreadable file, bytes no codec decodes, or a pixel type that is not 8- or 16-bit integer.
+/// unreadable file, bytes that are not a JPEG or PNG (by their header) or that the codec does not
+/// decode, a header declaring more than kMaxColourImagePixels, or a pixel type that is not 8- or
+/// 16-bit integer.
 /// On failure `out`'s content is unspecified. Never throws.
 Status read_colour_image(const std::string& path, Image<Rgb8>& out,
                          std::optional<std::uint64_t> frame_index = std::nullopt);

@@ -3,6 +3,10 @@
 /// its loss, the PNG round trip, and every unreadable file as a one-line corrupt_frame.
 #include "io/colour_image.h"
 
+#include <algorithm>
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -142,6 +146,69 @@ TEST(ColourImage, UnreadableFilesAreOneLineCorruptFrames) {
     EXPECT_NE(s.message().find(c.says), std::string::npos) << s.message();
     EXPECT_EQ(s.message().find('\n'), std::string::npos) << s.message();
   }
+}
+
+/// The bytes of a hex string.
+std::vector<std::uint8_t> from_hex(const std::string& hex) {
+  std::vector<std::uint8_t> bytes;
+  for (std::size_t k = 0; k + 1 < hex.size(); k += 2)
+    bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(k, 2), nullptr, 16)));
+  return bytes;
+}
+
+TEST(ColourImage, AHeaderDeclaringTooManyPixelsIsRefusedBeforeTheCodecRuns) {
+  // Found by the colour_image fuzz target (a timeout): 286 bytes of JPEG whose frame header,
+  // after one stray byte that libjpeg skips, declares 65479 x 1773 pixels; the decoder filled
+  // them in for over 10 s.
+  const std::vector<std::uint8_t> bomb = from_hex(
+      "ffd8ffe000104a4649468900010100000100010000ffdb004300030202030202"
+      "0303030304030104050805050404050a070706080c0a0c0c0b0a7e0b0d0e1210"
+      "0d0e110e0b0b1016101113141515150c0f171816141812141514ffdb00430103"
+      "040405040509050509140d0b0414141414141414141414141414141414141414"
+      "14141414141414141414141414141414141414141414141414141414141414ff"
+      "c000110806edffc703012200021101031101ffc4001f00000105010101010101"
+      "00000000000000000102030405060708090a0bc6c7c8c9ca3cd5d6d7d8d9dae2"
+      "e3e6e7e8e9eaf2f3f4f5f6f7f8f9faffda000c03010002110311003f00ec34ff"
+      "00845e0efb2a1fdecbe15f49f6f53f529e658de67fbf9ffe04ff00ccffd9");
+  ASSERT_EQ(bomb.size(), 286u);
+  Image<Rgb8> out;
+  Status s = decode_colour_image(bomb.data(), bomb.size(), out, "bomb.jpg");
+  EXPECT_EQ(s.code(), Status::Code::kCorruptFrame);
+  EXPECT_EQ(s.message(), "bomb.jpg: declares 65479 x 1773 pixels, more than the 33554432 a colour "
+                         "image may have");
+  // A JPEG and a PNG of the 11 x 7 pattern whose headers claim one row more than 8192 x 4096.
+  std::vector<std::uint8_t> jpeg, png;
+  ASSERT_TRUE(cv::imencode(".jpg", pattern_mat(CV_8UC3), jpeg));
+  ASSERT_TRUE(cv::imencode(".png", pattern_mat(CV_8UC3), png));
+  for (std::size_t k = 2; k + 8 < jpeg.size(); ++k)
+    if (jpeg[k] == 0xff && jpeg[k + 1] == 0xc0) {  // baseline SOF: length, precision, H, W
+      jpeg[k + 5] = 0x10;  // 4097
+      jpeg[k + 6] = 0x01;
+      jpeg[k + 7] = 0x20;  // 8192
+      jpeg[k + 8] = 0x00;
+      break;
+    }
+  const std::uint8_t big[8] = {0, 0, 0x20, 0, 0, 0, 0x10, 0x01};  // IHDR: 8192 x 4097
+  std::copy(big, big + 8, png.begin() + 16);
+  for (const auto* bytes : {&jpeg, &png}) {
+    s = decode_colour_image(bytes->data(), bytes->size(), out, "big");
+    EXPECT_EQ(s.message(), "big: declares 8192 x 4097 pixels, more than the 33554432 a colour "
+                           "image may have");
+  }
+  // Formats other than JPEG and PNG are not handed to the codec.
+  std::vector<std::uint8_t> bmp;
+  ASSERT_TRUE(cv::imencode(".bmp", pattern_mat(CV_8UC3), bmp));
+  s = decode_colour_image(bmp.data(), bmp.size(), out, "image.bmp");
+  EXPECT_EQ(s.message(), "image.bmp: not a JPEG or PNG colour image that can be decoded");
+  // The pattern itself still decodes, the JPEG's stray-byte skipping included: one byte between
+  // its first segment (APP0) and the next marker.
+  ASSERT_TRUE(cv::imencode(".jpg", pattern_mat(CV_8UC3), jpeg));
+  ASSERT_EQ(jpeg[2], 0xff);
+  const std::size_t next = 4 + (std::size_t{jpeg[4]} << 8 | jpeg[5]);
+  jpeg.insert(jpeg.begin() + static_cast<std::ptrdiff_t>(next), 0x00);
+  EXPECT_TRUE(decode_colour_image(jpeg.data(), jpeg.size(), out, "stray.jpg").is_ok());
+  EXPECT_EQ(out.width(), kWidth);
+  EXPECT_EQ(out.height(), kHeight);
 }
 
 }  // namespace
