@@ -67,11 +67,16 @@ try {
   await page.waitForFunction(() => Number(document.getElementById('live').dataset.frames || 0) >= 3, null, { timeout: 60000 })
     .catch(() => fail('the live canvas received no frames within 60 s'));
   const first = await page.evaluate(canvasStats, 'live');
-  await sleep(1500);
-  const second = await page.evaluate(canvasStats, 'live');
+  // The next frame that differs: within 1.5 s on an idle machine; the stream runs at nice +10, so
+  // a machine saturated by other work may hold it back for seconds.
+  let second = first;
+  for (let i = 0; i < 60 && second.hash === first.hash; ++i) {
+    await sleep(500);
+    second = await page.evaluate(canvasStats, 'live');
+  }
   await page.screenshot({ path: `${outDir}/live.png` });
   if (first.lit < 0.05 || second.lit < 0.05) fail(`the live canvas is nearly blank (${first.lit}, ${second.lit} of its pixels drawn)`);
-  if (first.hash === second.hash) fail('the live canvas did not change in 1.5 s of a running replay');
+  if (first.hash === second.hash) fail('the live canvas did not change in 30 s of a running replay');
   const hud = await page.locator('#hud').innerText();
   if (!hud.includes('fps')) fail(`the HUD shows no figures: "${hud}"`);
 
