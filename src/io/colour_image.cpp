@@ -96,8 +96,8 @@ Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rg
                            const std::string& where) {
   try {
     if (bytes == nullptr || size == 0) return Status::corrupt_frame(where + ": empty colour image");
-    // Refused before the codec sees it: a few hundred bytes of JPEG may declare 65535 x 65535
-    // pixels, which the decoder fills in (seconds and gigabytes for a broken file).
+    // Refused before the codec sees it: a few hundred bytes of JPEG may declare up to 2^30
+    // pixels (OpenCV's own limit), which its decoder allocates and fills in for a broken file.
     std::uint32_t width = 0, height = 0;
     if (!declared_size(bytes, size, width, height))
       return Status::corrupt_frame(where + ": not a JPEG or PNG colour image that can be decoded");
