@@ -14,8 +14,8 @@
 #   --build-dir D  where to build and run (default build-fuzz)
 #   --build-only   build the targets, fuzz nothing
 #   TARGET...      only these targets (default: all of fuzz/CMakeLists.txt)
-# Each target fuzzes a fresh copy of fuzz/corpus/TARGET/ (the repository's corpus is never
-# rewritten except by --merge) with fuzz/TARGET.dict, or the dictionary of the name's first word
+# Each target fuzzes a fresh copy of fuzz/corpus/TARGET/ (unless --continue; the repository's
+# corpus is never rewritten except by --merge) with fuzz/TARGET.dict, or the dictionary of the name's first word
 # (config_json uses fuzz/config.dict). Its log is D/runs/TARGET/log.txt; a crash, leak, timeout
 # (10 s per input) or out-of-memory input (2 GB) is kept as D/runs/TARGET/{crash,leak,timeout,oom}-*
 # and makes the script exit 1. Reproduce one with: D/TARGET_fuzz D/runs/TARGET/crash-...
@@ -150,7 +150,7 @@ for t in "${targets[@]}"; do
   [[ -f "$dir/log.1.txt" ]] && first_log="$dir/log.1.txt"
   if [[ ! -f "$log" ]]; then log=$(ls -v "$dir"/log.*.txt 2> /dev/null | tail -n1 || true); fi
   status=$(cat "$dir/status.txt" 2> /dev/null || echo 1)
-  execs=$(( done_execs + $( [[ "$log" == "$dir/log.txt" ]] && executions_in "$log" || echo 0) ))
+  execs=$(( done_execs + $(executions_in "$dir/log.txt") ))  # no log.txt: 0, all in done.txt
   secs=$(( done_secs + $(cat "$dir/seconds.txt" 2> /dev/null || echo 0) ))
   rate=$(( execs / (secs > 0 ? secs : 1) ))
   cov_start=$(grep -m1 -o 'INITED cov: [0-9]*' "$first_log" | awk '{print $3}' || true)
