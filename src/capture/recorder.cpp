@@ -76,9 +76,7 @@ RecordStats record_source(Source& source, const std::string& dir,
     if (step == ReadStep::kStop) break;
     if (step == ReadStep::kSkip) continue;
     if (const std::optional<std::string> why = order.out_of_order(source, frame)) {
-      if (stats.frames_out_of_order++ == 0)
-        spdlog::warn("{}: frame dropped, as is every frame whose timestamp repeats or goes back",
-                     *why);
+      if (stats.frames_out_of_order++ == 0) warn_first_out_of_order(*why);
       continue;
     }
 

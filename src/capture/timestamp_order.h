@@ -22,4 +22,8 @@ class TimestampOrder {
   std::optional<double> last_s_;
 };
 
+/// The warning for the first frame a loop drops because out_of_order() gave `why` (later ones
+/// are only counted).
+void warn_first_out_of_order(const std::string& why);
+
 }  // namespace aoscan

@@ -120,9 +120,7 @@ double capture_loop(Source& source, std::size_t stage_count, const PipelineOptio
         state.fail(Status::bad_input(*why));
         break;
       }
-      if (state.frames_out_of_order++ == 0)
-        spdlog::warn("{}: frame dropped, as is every frame whose timestamp repeats or goes back",
-                     *why);
+      if (state.frames_out_of_order++ == 0) warn_first_out_of_order(*why);
       continue;
     }
     frame->stage_ms[0] = ms_since(t0);
