@@ -49,11 +49,11 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
 /// lies within max_jump_ratio times the pixel's depth of its own (the same surface, not the one
 /// across a depth discontinuity): the direction of least spread, oriented toward the scanner
 /// (Hoppe et al. 1992). r is radius_px, or more where support_m > 0: the pixels within support_m
-/// metres of the point (point_radius() at its depth; past kDenseNormalRadiusPx, 7 x 7 pixels spread
-/// over the window); then, while fewer than min_points points
-/// qualify, one pixel more (the paper uses the 16 nearest points; a map rebuilt from a cloud has
-/// holes between them); r stays within kMaxNormalRadiusPx. No normal where fewer than three points
-/// qualify or they lie on a line. Rows run in parallel; the result does not depend on the thread
+/// metres of the point (point_radius() at its depth; past kDenseNormalRadiusPx, 7 x 7 pixels
+/// spread over the window); then, while fewer than min_points points qualify, one pixel more (the
+/// paper uses the 16 nearest points; a map rebuilt from a cloud has holes between them); r stays
+/// within max(radius_px, kMaxNormalRadiusPx). No normal where fewer than three points qualify or
+/// they lie on a line. Rows run in parallel; the result does not depend on the thread
 /// count.
 void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int radius_px = 2,
                                float support_m = 0.0f, int min_points = 0);
@@ -66,7 +66,7 @@ inline constexpr int kDenseNormalRadiusPx = 3;
 
 /// The normals `aoscan scans` gives a scan's points: compute_range_map_normals() over at least
 /// kScanNormalSupportM around each point (a depth camera's noisy frames need more points than a
-/// 5 x 5 window holds; a laser scan's coarser pixels keep their 5 x 5) and at least
+/// 5 x 5 window holds; a laser scan's coarser pixels keep 5 x 5 to 7 x 7) and at least
 /// kScanNormalMinPoints points.
 void compute_scan_normals(RangeMap& map);
 inline constexpr float kScanNormalSupportM = 0.02f;
