@@ -10,10 +10,6 @@
 namespace aoscan {
 namespace {
 
-std::string size_text(int width, int height) {
-  return std::to_string(width) + "x" + std::to_string(height);
-}
-
 class CameraFileSource final : public Source {
  public:
   CameraFileSource(std::unique_ptr<Source> inner, CameraInfo camera, const std::string& path)

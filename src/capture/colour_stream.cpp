@@ -25,19 +25,16 @@ Rgb8 yuv_to_rgb(int y, int u, int v) {
               clamp_byte((c + 516 * d) >> 8)};
 }
 
-std::string size_text(int width, int height) {
-  return std::to_string(width) + "x" + std::to_string(height);
-}
-
 }  // namespace
 
 Status decode_colour_frame(ColourPixelFormat format, const std::uint8_t* data,
                            std::size_t bytes_used, int width, int height, int bytes_per_line,
                            Image<Rgb8>& out, const std::string& origin) {
   if (format == ColourPixelFormat::kMjpeg) {
-    const Status s = decode_colour_image(data, bytes_used, out, origin);
-    if (!s.is_ok()) return s;
-    return Status::ok();
+    // The stream's negotiated size, when known: a frame of another is refused undecoded.
+    std::optional<ExpectedSize> expected;
+    if (width > 0 && height > 0) expected = ExpectedSize{width, height};
+    return decode_colour_image(data, bytes_used, out, origin, expected);
   }
   const int bytes_per_pixel = format == ColourPixelFormat::kRgb24 ? 3 : 2;
   if (width <= 0 || height <= 0 || bytes_per_line < bytes_per_pixel * width ||

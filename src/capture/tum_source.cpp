@@ -30,10 +30,6 @@ bool is_file(const std::string& path) {
   return fs::is_regular_file(path, ec);
 }
 
-std::string size_text(int width, int height) {
-  return std::to_string(width) + "x" + std::to_string(height);
-}
-
 class TumSource final : public Source {
  public:
   explicit TumSource(const std::string& folder) : folder_(trimmed(folder)) {
@@ -188,13 +184,12 @@ class TumSource final : public Source {
       return fail(paths_[i] + " (frame " + std::to_string(i) + "): no colour frame within " +
                   std::to_string(static_cast<int>(kColourMaxDtS * 1000.0 + 0.5)) +
                   " ms in rgb.txt");
-    if (Status s = read_colour_image(colour_paths_[i], frame.colour, i); !s.is_ok())
-      return fail(s.message());
+    // A frame of another size than the colour camera's is refused before it is decoded.
     const Intrinsics& k = colour_camera_->intrinsics;
-    if (frame.colour.width() != k.width || frame.colour.height() != k.height)
-      return fail(colour_paths_[i] + " (frame " + std::to_string(i) + "): size " +
-                  size_text(frame.colour.width(), frame.colour.height()) + " differs from " +
-                  size_text(k.width, k.height) + " of the colour camera");
+    if (Status s = read_colour_image(colour_paths_[i], frame.colour, i,
+                                     ExpectedSize{k.width, k.height});
+        !s.is_ok())
+      return fail(s.message());
     frame.colour_timestamp_s = colour_stamps_[i];
   }
 

@@ -4,6 +4,7 @@
 
 #include <cassert>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace aoscan {
@@ -55,5 +56,10 @@ class Image {
   int height_ = 0;
   std::vector<T> data_;
 };
+
+/// An image size as messages say it: "640x480".
+inline std::string size_text(int width, int height) {
+  return std::to_string(width) + "x" + std::to_string(height);
+}
 
 }  // namespace aoscan

@@ -90,10 +90,18 @@ bool declared_size(const std::uint8_t* b, std::size_t n, std::uint32_t& width,
   return false;
 }
 
+Status size_differs(const std::string& where, std::uint64_t width, std::uint64_t height,
+                    const ExpectedSize& expected) {
+  return Status::corrupt_frame(where + ": size " + std::to_string(width) + "x" +
+                               std::to_string(height) + " differs from " +
+                               size_text(expected.width, expected.height) +
+                               " of the colour camera");
+}
+
 }  // namespace
 
 Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rgb8>& out,
-                           const std::string& where) {
+                           const std::string& where, std::optional<ExpectedSize> expected) {
   try {
     if (bytes == nullptr || size == 0) return Status::corrupt_frame(where + ": empty colour image");
     // Refused before the codec sees it: a few hundred bytes of JPEG may declare up to 2^30
@@ -105,6 +113,10 @@ Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rg
       return Status::corrupt_frame(where + ": declares " + std::to_string(width) + " x " +
                                    std::to_string(height) + " pixels, more than the " +
                                    std::to_string(kMaxColourImagePixels) + " a colour image may have");
+    // A frame of another size than its camera's is of no use: refused unread as well.
+    if (expected && (width != static_cast<std::uint32_t>(expected->width) ||
+                     height != static_cast<std::uint32_t>(expected->height)))
+      return size_differs(where, width, height, *expected);
     const cv::Mat encoded(1, static_cast<int>(std::min<std::size_t>(size, 0x7fffffff)), CV_8UC1,
                           const_cast<std::uint8_t*>(bytes));
     const cv::Mat image = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
@@ -120,6 +132,10 @@ Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rg
       convert<std::uint16_t>(image, out);
     else
       return Status::corrupt_frame(where + ": pixels are neither 8- nor 16-bit integers");
+    // The header's size is the decoded one for PNG and JPEG; checked, not assumed.
+    if (expected && (out.width() != expected->width || out.height() != expected->height))
+      return size_differs(where, static_cast<std::uint64_t>(out.width()),
+                          static_cast<std::uint64_t>(out.height()), *expected);
     return Status::ok();
   } catch (const std::exception& e) {
     return Status::corrupt_frame(where + ": " + e.what());
@@ -127,7 +143,8 @@ Status decode_colour_image(const std::uint8_t* bytes, std::size_t size, Image<Rg
 }
 
 Status read_colour_image(const std::string& path, Image<Rgb8>& out,
-                         std::optional<std::uint64_t> frame_index) {
+                         std::optional<std::uint64_t> frame_index,
+                         std::optional<ExpectedSize> expected) {
   const std::string where =
       frame_index ? path + " (frame " + std::to_string(*frame_index) + ")" : path;
   try {
@@ -136,7 +153,7 @@ Status read_colour_image(const std::string& path, Image<Rgb8>& out,
     thread_local std::vector<unsigned char> bytes;
     bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
     if (in.bad()) return Status::corrupt_frame(where + ": cannot read colour image");
-    return decode_colour_image(bytes.data(), bytes.size(), out, where);
+    return decode_colour_image(bytes.data(), bytes.size(), out, where, expected);
   } catch (const std::exception& e) {
     return Status::corrupt_frame(where + ": " + e.what());
   }

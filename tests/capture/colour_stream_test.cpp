@@ -79,6 +79,14 @@ TEST(ColourDecode, MjpegFramesAndGarbage) {
   EXPECT_NEAR(out(5, 5).r, 200, 2);
   EXPECT_NEAR(out(5, 5).g, 120, 2);
   EXPECT_NEAR(out(5, 5).b, 40, 2);
+  // With the stream's negotiated size: the frame's own, or refused by its header.
+  EXPECT_TRUE(decode_colour_frame(ColourPixelFormat::kMjpeg, jpeg.data(), jpeg.size(), 24, 16, 0,
+                                  out, "cam")
+                  .is_ok());
+  EXPECT_EQ(decode_colour_frame(ColourPixelFormat::kMjpeg, jpeg.data(), jpeg.size(), 32, 16, 0,
+                                out, "cam (frame 2)")
+                .message(),
+            "cam (frame 2): size 24x16 differs from 32x16 of the colour camera");
   const std::vector<std::uint8_t> garbage(100, 0x5a);
   const Status bad = decode_colour_frame(ColourPixelFormat::kMjpeg, garbage.data(), garbage.size(),
                                          0, 0, 0, out, "cam (frame 9)");

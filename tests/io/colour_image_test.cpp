@@ -211,5 +211,38 @@ TEST(ColourImage, AHeaderDeclaringTooManyPixelsIsRefusedBeforeTheCodecRuns) {
   EXPECT_EQ(out.height(), kHeight);
 }
 
+TEST(ColourImage, AnImageOfAnotherSizeThanExpectedIsRefusedBeforeTheCodecRuns) {
+  std::vector<std::uint8_t> jpeg, png;
+  ASSERT_TRUE(cv::imencode(".jpg", pattern_mat(CV_8UC3), jpeg));
+  ASSERT_TRUE(cv::imencode(".png", pattern_mat(CV_8UC3), png));
+  Image<Rgb8> out;
+  for (const auto* bytes : {&jpeg, &png}) {
+    ASSERT_TRUE(decode_colour_image(bytes->data(), bytes->size(), out, "f",
+                                    ExpectedSize{kWidth, kHeight})
+                    .is_ok());
+    EXPECT_EQ(out.width(), kWidth);
+    const Status s = decode_colour_image(bytes->data(), bytes->size(), out, "f (frame 3)",
+                                         ExpectedSize{kWidth, kHeight + 1});
+    EXPECT_EQ(s.code(), Status::Code::kCorruptFrame);
+    EXPECT_EQ(s.message(), "f (frame 3): size 11x7 differs from 11x8 of the colour camera");
+    // Refused by its header: the header alone (the rest cut off, which the codec would not
+    // decode) gets the same message.
+    const std::size_t header = bytes == &png ? 33 : jpeg.size() / 3;
+    EXPECT_EQ(decode_colour_image(bytes->data(), header, out, "f (frame 3)",
+                                  ExpectedSize{kWidth, kHeight + 1})
+                  .message(),
+              s.message());
+    EXPECT_NE(decode_colour_image(bytes->data(), header, out, "f (frame 3)",
+                                  ExpectedSize{kWidth, kHeight})
+                  .message(),
+              s.message());
+  }
+  // From a file, with the frame named.
+  ScratchDir dir;
+  ASSERT_TRUE(cv::imwrite(dir.file("rgb.png"), pattern_mat(CV_8UC3)));
+  EXPECT_EQ(read_colour_image(dir.file("rgb.png"), out, 4, ExpectedSize{640, 480}).message(),
+            dir.file("rgb.png") + " (frame 4): size 11x7 differs from 640x480 of the colour camera");
+}
+
 }  // namespace
 }  // namespace aoscan
