@@ -11,10 +11,47 @@
 #endif
 
 #include "core/status.h"
+#include "fusion/tsdf/colour_kernels.h"
+#include "geometry/simd.h"
 
 static_assert(aoscan::kBlockSize == 8, "colour sampling finds blocks by shifts of 3 bits");
 
 namespace aoscan {
+namespace detail {
+
+AOSCAN_NO_CONTRACT void project_shell_portable(const ColourProjection& c, const int origin[3],
+                                               const std::uint16_t* voxel, int n,
+                                               ColourHits& hits) {
+  const float width = static_cast<float>(c.width), height = static_cast<float>(c.height);
+  int count = 0;
+  for (int k = 0; k < n; ++k) {
+    const int vi = voxel[k];
+    const float wx = static_cast<float>(origin[0] + (vi & 7)) * c.voxel_m;
+    const float wy = static_cast<float>(origin[1] + ((vi >> 3) & 7)) * c.voxel_m;
+    const float wz = static_cast<float>(origin[2] + (vi >> 6)) * c.voxel_m;
+    const float x = ((c.R[0][0] * wx + c.R[0][1] * wy) + c.R[0][2] * wz) + c.t[0];
+    const float y = ((c.R[1][0] * wx + c.R[1][1] * wy) + c.R[1][2] * wz) + c.t[1];
+    const float z = ((c.R[2][0] * wx + c.R[2][1] * wy) + c.R[2][2] * wz) + c.t[2];
+    if (!(z > 0.0f)) continue;
+    // floor(u) inside [0, width) exactly when u is (NaN is neither).
+    const float u = (c.fx * x) / z + c.cx;
+    const float v = (c.fy * y) / z + c.cy;
+    if (!(u >= 0.0f && u < width && v >= 0.0f && v < height)) continue;
+    const int pixel = static_cast<int>(v) * c.width + static_cast<int>(u);
+    const float d = c.depth[pixel];
+    if (!(d > 0.0f && std::abs(d - z) <= c.band_m)) continue;
+    hits.voxel[count] = static_cast<std::uint16_t>(vi);
+    hits.pixel[count] = pixel;
+    hits.x[count] = x;
+    hits.y[count] = y;
+    hits.z[count] = z;
+    ++count;
+  }
+  hits.count = count;
+}
+
+}  // namespace detail
+
 namespace {
 
 /// Bilinear colour at (u, v) (pixel centres at integers); false outside the image.
@@ -48,6 +85,23 @@ std::uint8_t to_byte(float v) {
 
 }  // namespace
 
+namespace detail {
+
+AOSCAN_NO_CONTRACT void update_colours_portable(std::uint8_t* voxels, const std::uint16_t* index,
+                                                const float* r, const float* g, const float* b,
+                                                int n, float cap) {
+  for (int k = 0; k < n; ++k) {
+    std::uint8_t* c = voxels + 4 * index[k];
+    const float w = c[3];
+    c[0] = to_byte((static_cast<float>(c[0]) * w + r[k]) / (w + 1.0f));
+    c[1] = to_byte((static_cast<float>(c[1]) * w + g[k]) / (w + 1.0f));
+    c[2] = to_byte((static_cast<float>(c[2]) * w + b[k]) / (w + 1.0f));
+    c[3] = static_cast<std::uint8_t>(std::min(w + 1.0f, cap));
+  }
+}
+
+}  // namespace detail
+
 ColourBlock& ColourVolume::allocate(int index) {
   if (index < 0) throw usage_error("ColourVolume: negative block index");
   if (static_cast<std::size_t>(index) >= blocks_.size())
@@ -61,10 +115,21 @@ ColourBlock& ColourVolume::allocate(int index) {
 }
 
 ColourIntegration::ColourIntegration(ColourVolume& colour, const ColourFrameInput& input)
+#if AOSCAN_COLOUR_X86
+    : ColourIntegration(colour, input, cpu_has_avx2()) {
+}
+#else
+    : ColourIntegration(colour, input, false) {
+}
+#endif
+
+ColourIntegration::ColourIntegration(ColourVolume& colour, const ColourFrameInput& input,
+                                     bool simd)
     : colour_(colour),
       depth_m_(*input.depth_m),
       image_(*input.colour),
-      registered_(input.camera.registered) {
+      registered_(input.camera.registered),
+      simd_(simd && AOSCAN_COLOUR_X86) {
   const Intrinsics& kd = input.depth_intrinsics;
   const Intrinsics& kc = input.camera.intrinsics;
   if (depth_m_.width() != kd.width || depth_m_.height() != kd.height)
@@ -74,26 +139,35 @@ ColourIntegration::ColourIntegration(ColourVolume& colour, const ColourFrameInpu
   if (registered_ && (image_.width() != depth_m_.width() || image_.height() != depth_m_.height()))
     throw usage_error("colour integration: registered colour differs in size from the depth");
   const Pose T_camera_world = input.T_world_camera.inverse();
-  R_ = T_camera_world.rotation().cast<float>();
-  t_ = T_camera_world.translation().cast<float>();
+  const Eigen::Matrix3f R = T_camera_world.rotation().cast<float>();
+  const Eigen::Vector3f t = T_camera_world.translation().cast<float>();
+  detail::ColourProjection& c = projection_;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) c.R[i][j] = R(i, j);
+    c.t[i] = t(i);
+  }
+  c.fx = static_cast<float>(kd.fx);
+  c.fy = static_cast<float>(kd.fy);
+  c.cx = static_cast<float>(kd.cx + 0.5);
+  c.cy = static_cast<float>(kd.cy + 0.5);
+  c.voxel_m = 0.0f;
+  c.width = kd.width;
+  c.height = kd.height;
+  c.depth = depth_m_.data();
+  c.band_m = input.band_m;
   Rc_ = input.camera.T_colour_depth.rotation().cast<float>();
   tc_ = input.camera.T_colour_depth.translation().cast<float>();
-  fx_ = static_cast<float>(kd.fx);
-  fy_ = static_cast<float>(kd.fy);
-  cx_ = static_cast<float>(kd.cx);
-  cy_ = static_cast<float>(kd.cy);
   cfx_ = static_cast<float>(kc.fx);
   cfy_ = static_cast<float>(kc.fy);
   ccx_ = static_cast<float>(kc.cx);
   ccy_ = static_cast<float>(kc.cy);
-  band_m_ = input.band_m;
   shell_m_ = input.shell_m;
   cap_ = static_cast<float>(std::clamp(input.max_weight, 1, 255));
 }
 
 void ColourIntegration::begin(const TsdfVolume& volume, const std::vector<int>& blocks) {
   blocks_ = &blocks;
-  voxel_m_ = volume.voxel_size_m();
+  projection_.voxel_m = volume.voxel_size_m();
   // Voxels whose fused TSDF puts them outside the shell are not looked at. The test on the
   // quantised TSDF: |tsdf_q| <= shell_q_ exactly when |tsdf()| <= shell_tsdf (tsdf() is tsdf_q
   // times a positive step, monotone in tsdf_q).
@@ -115,6 +189,7 @@ void ColourIntegration::begin(const TsdfVolume& volume, const std::vector<int>& 
 void ColourIntegration::visit(const TsdfVolume& volume, std::size_t position) {
   const int index = (*blocks_)[position];
   const VoxelBlock& tsdf = volume.block(index);
+  colour_.coloured_[position] = 0;
   // Most voxels of an updated block lie outside the shell (or were never seen): a branch-free
   // first pass flags the shell's voxels, so that only those are projected.
   alignas(8) std::array<std::uint8_t, kBlockVoxels> in_shell;
@@ -123,50 +198,65 @@ void ColourIntegration::visit(const TsdfVolume& volume, std::size_t position) {
     in_shell[static_cast<std::size_t>(vi)] = static_cast<std::uint8_t>(
         (voxel.count != 0) & (voxel.tsdf_q >= -shell_q_) & (voxel.tsdf_q <= shell_q_));
   }
-  std::unique_ptr<ColourBlock>& slot = colour_.blocks_[static_cast<std::size_t>(index)];
-  const Eigen::Vector3i origin = volume.block_coord(index) * kBlockSize;
-  const int width = depth_m_.width(), height = depth_m_.height();
+  std::array<std::uint16_t, kBlockVoxels> shell;
   int n = 0;
   for (int word = 0; word < kBlockVoxels / 8; ++word) {
     std::uint64_t flags;
     std::memcpy(&flags, in_shell.data() + 8 * word, sizeof(flags));
-    for (; flags != 0; flags &= flags - 1) {
-      const int vi = 8 * word + __builtin_ctzll(flags) / 8;
-      const Eigen::Vector3f world =
-          (origin + Eigen::Vector3i(vi & 7, (vi >> 3) & 7, vi >> 6)).cast<float>() * voxel_m_;
-      const Eigen::Vector3f p = R_ * world + t_;
-      if (!(p.z() > 0.0f)) continue;
-      const int u = floor_to_int(fx_ * p.x() / p.z() + cx_ + 0.5f);
-      const int v = floor_to_int(fy_ * p.y() / p.z() + cy_ + 0.5f);
-      if (u < 0 || v < 0 || u >= width || v >= height) continue;
-      const float d = depth_m_(u, v);
-      if (!(d > 0.0f) || std::abs(d - p.z()) > band_m_) continue;
-      float rgb[3];
-      if (registered_) {
-        const Rgb8& c = image_(u, v);
-        rgb[0] = c.r;
-        rgb[1] = c.g;
-        rgb[2] = c.b;
-      } else {
-        const Eigen::Vector3f q = Rc_ * p + tc_;
-        if (!(q.z() > 0.0f) ||
-            !bilinear(image_, cfx_ * q.x() / q.z() + ccx_, cfy_ * q.y() / q.z() + ccy_, rgb))
-          continue;
-      }
-      if (slot == nullptr) {
-        slot = std::make_unique<ColourBlock>();
-        colour_.fresh_[position] = 1;
-      }
-      ColourVoxel& c = slot->voxels[static_cast<std::size_t>(vi)];
-      const float w = c.weight;
-      c.r = to_byte((c.r * w + rgb[0]) / (w + 1.0f));
-      c.g = to_byte((c.g * w + rgb[1]) / (w + 1.0f));
-      c.b = to_byte((c.b * w + rgb[2]) / (w + 1.0f));
-      c.weight = static_cast<std::uint8_t>(std::min(w + 1.0f, cap_));
-      ++n;
-    }
+    for (; flags != 0; flags &= flags - 1)
+      shell[static_cast<std::size_t>(n++)] =
+          static_cast<std::uint16_t>(8 * word + __builtin_ctzll(flags) / 8);
   }
-  colour_.coloured_[position] = n;
+  if (n == 0) return;
+  const Eigen::Vector3i first = volume.block_coord(index) * kBlockSize;
+  const int origin[3] = {first.x(), first.y(), first.z()};
+  detail::ColourHits hits;
+#if AOSCAN_COLOUR_X86
+  if (simd_)
+    detail::project_shell_avx2(projection_, origin, shell.data(), n, hits);
+  else
+#endif
+    detail::project_shell_portable(projection_, origin, shell.data(), n, hits);
+  // Each hit's colour: its depth pixel's (registered) or the colour camera's bilinear sample.
+  std::array<std::uint16_t, kBlockVoxels> coloured;
+  std::array<float, kBlockVoxels> r, g, b;
+  int m = 0;
+  for (int k = 0; k < hits.count; ++k) {
+    float rgb[3];
+    if (registered_) {
+      const Rgb8& c = image_.data()[hits.pixel[k]];
+      rgb[0] = c.r;
+      rgb[1] = c.g;
+      rgb[2] = c.b;
+    } else {
+      const Eigen::Vector3f q = Rc_ * Eigen::Vector3f(hits.x[k], hits.y[k], hits.z[k]) + tc_;
+      if (!(q.z() > 0.0f) ||
+          !bilinear(image_, cfx_ * q.x() / q.z() + ccx_, cfy_ * q.y() / q.z() + ccy_, rgb))
+        continue;
+    }
+    const auto at = static_cast<std::size_t>(m++);
+    coloured[at] = hits.voxel[k];
+    r[at] = rgb[0];
+    g[at] = rgb[1];
+    b[at] = rgb[2];
+  }
+  if (m == 0) return;
+  std::unique_ptr<ColourBlock>& slot = colour_.blocks_[static_cast<std::size_t>(index)];
+  if (slot == nullptr) {
+    slot = std::make_unique<ColourBlock>();
+    colour_.fresh_[position] = 1;
+  }
+  static_assert(sizeof(ColourVoxel) == 4 && offsetof(ColourVoxel, weight) == 3,
+                "a colour voxel is r, g, b, weight");
+  auto* bytes = reinterpret_cast<std::uint8_t*>(slot->voxels.data());
+#if AOSCAN_COLOUR_X86
+  if (simd_)
+    detail::update_colours_avx2(bytes, coloured.data(), r.data(), g.data(), b.data(), m, cap_);
+  else
+#endif
+    detail::update_colours_portable(bytes, coloured.data(), r.data(), g.data(), b.data(), m,
+                                    cap_);
+  colour_.coloured_[position] = m;
 }
 
 ColourIntegrateStats ColourIntegration::finish() {

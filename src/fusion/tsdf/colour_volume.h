@@ -15,6 +15,7 @@
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/pose.h"
+#include "fusion/tsdf/colour_kernels.h"
 #include "fusion/tsdf/tsdf_integrator.h"
 #include "fusion/tsdf/tsdf_volume.h"
 
@@ -63,12 +64,16 @@ struct ColourFrameInput {
 /// (|depth(pixel) - z| <= band_m at its depth pixel), and its colour becomes the running mean, its
 /// weight capped at max_weight. The colour is sampled bilinearly (a registered camera: the voxel's
 /// depth pixel itself). Blocks are visited on the integrator's threads; the result does not depend
-/// on the thread count or the order of the blocks.
+/// on the thread count or the order of the blocks. The projection of the shell's voxels and the
+/// running mean run eight voxels per AVX2 vector where the CPU has AVX2, with the same result bit
+/// for bit as the portable code.
 class ColourIntegration final : public BlockVisitor {
  public:
   /// Throws usage_error when the colour image's size differs from the camera's or the depth's
   /// from its intrinsics (before any block is touched). The inputs must outlive the object.
   ColourIntegration(ColourVolume& colour, const ColourFrameInput& input);
+  /// The same with the AVX2 kernels (`simd`: the caller checked the CPU) or the portable code.
+  ColourIntegration(ColourVolume& colour, const ColourFrameInput& input, bool simd);
 
   void begin(const TsdfVolume& volume, const std::vector<int>& blocks) override;
   void visit(const TsdfVolume& volume, std::size_t position) override;
@@ -81,11 +86,13 @@ class ColourIntegration final : public BlockVisitor {
   const Image<float>& depth_m_;
   const Image<Rgb8>& image_;
   bool registered_;
+  bool simd_;
   const std::vector<int>* blocks_ = nullptr;
-  Eigen::Matrix3f R_, Rc_;
-  Eigen::Vector3f t_, tc_;
-  float fx_, fy_, cx_, cy_, cfx_, cfy_, ccx_, ccy_;
-  float voxel_m_ = 0.0f, band_m_, shell_m_, cap_;
+  detail::ColourProjection projection_;  ///< into the depth camera; voxel_m set by begin()
+  Eigen::Matrix3f Rc_;
+  Eigen::Vector3f tc_;
+  float cfx_, cfy_, ccx_, ccy_;
+  float shell_m_, cap_;
   int shell_q_ = -1;  ///< |tsdf_q| <= shell_q_: the voxel lies in the shell
 };
 

@@ -13,6 +13,7 @@
 
 #include "core/status.h"
 #include "fusion/tsdf/tsdf_integrator.h"
+#include "geometry/simd.h"
 #include "support/test_scenes.h"
 #include "support/tsdf_reference.h"
 
@@ -237,6 +238,66 @@ TEST(ColourVolume, FusedInsideTheDepthIntegrationEqualsThePassAfterIt) {
   ColourIntegration visitor(fused, {&depth, kDepth, bad, &image, camera, 0.01f, 0.02f, 8});
   fused_integrator.integrate(fused_volume, depth, kDepth, bad, &visitor);
   EXPECT_EQ(visitor.finish().voxels_coloured, 0);
+}
+
+// The AVX2 kernels (the projection of the shell's voxels, the running mean) against the portable
+// code: the same colour blocks byte for byte, frame after frame, for a registered and an
+// unregistered colour camera, a textured image and a weight cap the frames reach.
+TEST(ColourVolume, TheAvx2KernelsColourLikeThePortableCode) {
+#if defined(__x86_64__)
+  if (!cpu_has_avx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable code runs";
+#else
+  GTEST_SKIP() << "no AVX2 kernels on this architecture";
+#endif
+  test::Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 2.0});
+  scene.spheres.push_back({Eigen::Vector3d(0.1, 0.0, 1.4), 0.25});
+  ColourCamera unregistered;
+  unregistered.intrinsics = Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
+  unregistered.T_colour_depth =
+      Pose(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+           Eigen::Vector3d(-0.025, 0.001, 0.002));
+  Image<Rgb8> image(640, 480);
+  for (int v = 0; v < 480; ++v)
+    for (int u = 0; u < 640; ++u)
+      image(u, v) = Rgb8{static_cast<std::uint8_t>((u * 7 + v * 3) % 256),
+                         static_cast<std::uint8_t>((u * v) % 251),
+                         static_cast<std::uint8_t>((u ^ v) & 255)};
+  for (const ColourCamera& camera : {ColourCamera::registered_to(kDepth), unregistered}) {
+    TsdfVolume volume{FusionConfig{}};
+    TsdfIntegrator integrator;
+    ColourVolume fast, portable;
+    Image<float> depth;
+    for (int frame = 0; frame < 6; ++frame) {
+      const Pose T_world_camera(
+          Eigen::AngleAxisd(0.03 * frame, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+          Eigen::Vector3d(0.02 * frame, -0.01 * frame, 0.01 * frame));
+      test::render(scene, kDepth, T_world_camera, depth);
+      integrator.integrate(volume, depth, kDepth, T_world_camera);
+      const ColourFrameInput input{&depth, kDepth, T_world_camera, &image, camera,
+                                   2.0f * volume.voxel_size_m(), volume.truncation_m(), 4};
+      ColourIntegration a(fast, input, true), b(portable, input, false);
+      const std::vector<int>& blocks = integrator.updated_blocks();
+      a.begin(volume, blocks);
+      b.begin(volume, blocks);
+      for (std::size_t k = 0; k < blocks.size(); ++k) {
+        a.visit(volume, k);
+        b.visit(volume, k);
+      }
+      const ColourIntegrateStats sa = a.finish(), sb = b.finish();
+      ASSERT_GT(sa.voxels_coloured, 1000) << "frame " << frame;
+      EXPECT_EQ(sa.voxels_coloured, sb.voxels_coloured) << "frame " << frame;
+      EXPECT_EQ(sa.blocks_allocated, sb.blocks_allocated) << "frame " << frame;
+      ASSERT_EQ(fast.block_count(), portable.block_count()) << "frame " << frame;
+      for (int i = 0; i < volume.block_count(); ++i) {
+        ASSERT_EQ(fast.block(i) == nullptr, portable.block(i) == nullptr) << "block " << i;
+        if (fast.block(i) != nullptr) {
+          ASSERT_EQ(0, std::memcmp(fast.block(i), portable.block(i), sizeof(ColourBlock)))
+              << "frame " << frame << ", block " << i;
+        }
+      }
+    }
+  }
 }
 
 TEST(ColourVolume, BadInputIsRefusedOrIgnored) {
