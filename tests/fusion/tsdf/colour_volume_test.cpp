@@ -43,6 +43,26 @@ Image<Rgb8> render_colour(const ColourCamera& camera) {
   return image;
 }
 
+/// An unregistered colour camera beside the depth camera: 2.5 cm to the side, turned 0.01 rad.
+ColourCamera offset_colour_camera() {
+  ColourCamera camera;
+  camera.intrinsics = Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
+  camera.T_colour_depth = Pose(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+                               Eigen::Vector3d(-0.025, 0.001, 0.002));
+  return camera;
+}
+
+/// A colour image whose every pixel differs from its neighbours.
+Image<Rgb8> textured_image() {
+  Image<Rgb8> image(640, 480);
+  for (int v = 0; v < 480; ++v)
+    for (int u = 0; u < 640; ++u)
+      image(u, v) = Rgb8{static_cast<std::uint8_t>((u * 7 + v * 3) % 256),
+                         static_cast<std::uint8_t>((u * v) % 251),
+                         static_cast<std::uint8_t>((u ^ v) & 255)};
+  return image;
+}
+
 struct Fused {
   TsdfVolume volume{FusionConfig{}};
   TsdfIntegrator integrator;
@@ -191,16 +211,8 @@ TEST(ColourVolume, FusedInsideTheDepthIntegrationEqualsThePassAfterIt) {
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 2.0});
   scene.spheres.push_back({Eigen::Vector3d(0.1, 0.0, 1.4), 0.25});
-  ColourCamera camera;
-  camera.intrinsics = Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
-  camera.T_colour_depth = Pose(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()).toRotationMatrix(),
-                               Eigen::Vector3d(-0.025, 0.001, 0.002));
-  Image<Rgb8> image(640, 480);
-  for (int v = 0; v < 480; ++v)
-    for (int u = 0; u < 640; ++u)
-      image(u, v) = Rgb8{static_cast<std::uint8_t>((u * 7 + v * 3) % 256),
-                         static_cast<std::uint8_t>((u * v) % 251),
-                         static_cast<std::uint8_t>((u ^ v) & 255)};
+  const ColourCamera camera = offset_colour_camera();
+  const Image<Rgb8> image = textured_image();
   TsdfVolume fused_volume{FusionConfig{}}, plain_volume{FusionConfig{}};
   TsdfIntegrator fused_integrator, plain_integrator;
   ColourVolume fused, plain;
@@ -252,18 +264,8 @@ TEST(ColourVolume, TheAvx2KernelsColourLikeThePortableCode) {
   test::Scene scene;
   scene.planes.push_back({Eigen::Vector3d(0, 0, 1), 2.0});
   scene.spheres.push_back({Eigen::Vector3d(0.1, 0.0, 1.4), 0.25});
-  ColourCamera unregistered;
-  unregistered.intrinsics = Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
-  unregistered.T_colour_depth =
-      Pose(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()).toRotationMatrix(),
-           Eigen::Vector3d(-0.025, 0.001, 0.002));
-  Image<Rgb8> image(640, 480);
-  for (int v = 0; v < 480; ++v)
-    for (int u = 0; u < 640; ++u)
-      image(u, v) = Rgb8{static_cast<std::uint8_t>((u * 7 + v * 3) % 256),
-                         static_cast<std::uint8_t>((u * v) % 251),
-                         static_cast<std::uint8_t>((u ^ v) & 255)};
-  for (const ColourCamera& camera : {ColourCamera::registered_to(kDepth), unregistered}) {
+  const Image<Rgb8> image = textured_image();
+  for (const ColourCamera& camera : {ColourCamera::registered_to(kDepth), offset_colour_camera()}) {
     TsdfVolume volume{FusionConfig{}};
     TsdfIntegrator integrator;
     ColourVolume fast, portable;
