@@ -23,9 +23,13 @@ struct SnapshotOptions {
                              View::kColour, View::kColourMvao, View::kNormals,
                              View::kDepth,  View::kOrbit,      View::kSplats};
   ViewStyle style;
+  /// Also write the model raycast's depth (io/snapshot_files.h), for tools that place the views'
+  /// pixels in the world.
+  bool raycast_depth = true;
 };
 
-/// Writes `DIR/<view>_<sequence, 6 digits>.png` for each view. Costs one composite plus one PNG
+/// Writes `DIR/<view>_<sequence, 6 digits>.png` for each view, and the model raycast's depth as
+/// `DIR/raycast_depth_<sequence>.png` (io/snapshot_files.h). Costs one composite plus one PNG
 /// encode per view, too slow for the fusion path: call it off that path (the render thread or the
 /// output stage). Not thread-safe: one caller.
 class SnapshotWriter {
@@ -42,11 +46,14 @@ class SnapshotWriter {
 
   /// Path of the snapshot of `view` for a frame with `sequence`.
   std::string path(View view, std::uint64_t sequence) const;
+  /// Path of the file named `name` (a view's, or kRaycastDepthView) for a frame with `sequence`.
+  std::string path(const char* name, std::uint64_t sequence) const;
   std::size_t files_written() const { return files_written_; }
 
  private:
   SnapshotOptions options_;
   Image<Rgb8> buffer_;
+  Image<std::uint16_t> depth_units_;
   std::uint64_t offered_ = 0;
   std::size_t files_written_ = 0;
 };

@@ -164,12 +164,13 @@ TEST(LiveViewCli, HeadlessSnapshotsEveryNthFrameAndTheLast) {
   }
   std::set<std::string> expected;
   for (const char* view :
-       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats"})
+       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats",
+        "raycast_depth"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);
   expect_outputs(dir / "out", 8);
-  EXPECT_EQ(read_stats(dir / "out")["snapshot_files"], 27);
+  EXPECT_EQ(read_stats(dir / "out")["snapshot_files"], 30);
 
   // Deterministic: a second run writes the same images.
   const auto again =

@@ -186,11 +186,12 @@ TEST(ViewStage, SnapshotsOfAShortReplayHaveTheExpectedNamesAndSizes) {
   for (const auto& e : fs::directory_iterator(snaps)) names.insert(e.path().filename().string());
   std::set<std::string> expected;
   for (const char* view :
-       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats"})
+       {"shaded", "ssao", "mvao", "colour", "colour_mvao", "normals", "depth", "orbit", "splats",
+        "raycast_depth"})
     for (const char* seq : {"000000", "000004", "000007"})
       expected.insert(std::string(view) + "_" + seq + ".png");
   EXPECT_EQ(names, expected);
-  EXPECT_EQ(r.session.snapshot_files, 27u);
+  EXPECT_EQ(r.session.snapshot_files, 30u);
   for (const std::string& name : expected) {
     const auto [w, h] = png_size(snaps / name);
     EXPECT_EQ(w, 160) << name;
@@ -220,6 +221,8 @@ TEST(ViewStage, FullResolutionSnapshotsShowTheHalfResolutionModel) {
     ASSERT_EQ(png_size(png), std::make_pair(640, 480)) << png;
     EXPECT_GT(fraction_unlike_corner(png), 0.5) << png;
   }
+  // The model raycast's depth beside them, at the raycast's own size.
+  EXPECT_EQ(png_size(snaps / "raycast_depth_000001.png"), std::make_pair(320, 240));
 }
 
 /// The RGB pixels of a PNG (empty when unreadable).

@@ -6,12 +6,15 @@
 #include <png.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "io/png_read.h"
+#include "io/snapshot_files.h"
 #include "render/gl_renderer.h"
 #include "render/render_test_util.h"
 #include "render/shaders.h"
@@ -34,11 +37,13 @@ TEST(Snapshot, WritesEveryNthFrameEveryView) {
     frame.sequence = s;
     ASSERT_TRUE(writer.offer(frame).is_ok());
   }
-  // Offers 0, 3, 6 → sequences 10, 13, 16.
-  EXPECT_EQ(writer.files_written(), 3u * kViewCount);
-  for (std::uint64_t s : {10u, 13u, 16u})
+  // Offers 0, 3, 6 → sequences 10, 13, 16: every view and the raycast's depth.
+  EXPECT_EQ(writer.files_written(), 3u * (kViewCount + 1));
+  for (std::uint64_t s : {10u, 13u, 16u}) {
     for (int v = 0; v < kViewCount; ++v)
       EXPECT_TRUE(fs::exists(writer.path(static_cast<View>(v), s))) << s;
+    EXPECT_TRUE(fs::exists(writer.path(kRaycastDepthView, s))) << s;
+  }
   EXPECT_FALSE(fs::exists(writer.path(View::kShaded, 11)));
   EXPECT_EQ(fs::path(writer.path(View::kNormals, 13)).filename(), "normals_000013.png");
 
@@ -52,6 +57,21 @@ TEST(Snapshot, WritesEveryNthFrameEveryView) {
   Image<Rgb8> expected;
   composite_view(frame, View::kShaded, expected);
   EXPECT_EQ(back, expected);
+
+  // The raycast's depth: 16-bit, 5000 units a metre, rounded; 0 where there is no surface.
+  Image<std::uint16_t> depth;
+  ASSERT_TRUE(read_grey16_png(writer.path(kRaycastDepthView, 13), depth).is_ok());
+  ASSERT_EQ(depth.width(), frame.depth_m.width());
+  ASSERT_EQ(depth.height(), frame.depth_m.height());
+  int surface = 0;
+  for (int y = 0; y < depth.height(); ++y)
+    for (int x = 0; x < depth.width(); ++x) {
+      const float d = frame.depth_m(x, y);
+      const int want = d > 0.0f ? static_cast<int>(std::lround(d * 5000.0)) : 0;
+      EXPECT_EQ(depth(x, y), want) << x << "," << y;
+      surface += want > 0;
+    }
+  EXPECT_GT(surface, 0);
 }
 
 TEST(Snapshot, ErrorsAreOneLineNamingThePath) {

@@ -293,6 +293,27 @@ TEST(ImageEval, TemporalStabilityIsTheSpreadOverFramesOfEachCellsPerFrameMean) {
   EXPECT_THROW(TemporalStability(0.0), Error);
 }
 
+TEST(ImageEval, TemporalStabilityPlacesARaycastDepthAtAPyramidLevelOfTheViews) {
+  // Views of 4 x 2 pixels, the model raycast at level 1 (2 x 1): fx 0.5, cx 0.5, cy 0. Raycast
+  // pixel x = 0 is view pixel (0, 0) and the point (-z, 0, z); x = 1 is view pixel (2, 0) and
+  // (z, 0, z). 1 m cells: depth 1.5 puts them in cells x = -2 and x = 1.
+  const Intrinsics k = camera(4, 2, 1, 1.5, 0.5);
+  TemporalStability s(1.0);
+  Image<float> ssao(4, 2, kNaN), mvao(4, 2, 0.5f);
+  ssao(0, 0) = 0.1f;
+  ssao(2, 0) = 0.3f;
+  s.add(k, Pose(), Image<float>(2, 1, 1.5f), ssao, mvao);
+  ssao(0, 0) = 0.2f;
+  s.add(k, Pose(), Image<float>(2, 1, 1.5f), ssao, mvao);
+  const TemporalStability::Spread spread = s.result(2).all;
+  ASSERT_EQ(spread.cells, 2u);
+  EXPECT_NEAR(spread.std_mean[0], (0.05 + 0.0) / 2, 1e-6);
+  EXPECT_EQ(spread.std_mean[1], 0.0);
+  // A depth image that is neither the views' size nor a pyramid level of it is refused.
+  EXPECT_THROW(s.add(k, Pose(), Image<float>(3, 1, 1.5f), ssao, mvao), Error);
+  EXPECT_THROW(s.add(k, Pose(), Image<float>(2, 2, 1.5f), ssao, mvao), Error);
+}
+
 TEST(ImageEval, TemporalStabilityWithAFinalGridReadsItAtEachPointAndSplitsOccludedCells) {
   const Intrinsics k = camera(2, 1, 1, 0.25, 0);
   // 1 m cells for the spread, 0.5 m cells in the grid. Camera at the origin: depth 2 puts

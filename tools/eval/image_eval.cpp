@@ -16,6 +16,7 @@
 #include "core/status.h"
 #include "io/colour_image.h"
 #include "io/png_read.h"
+#include "io/snapshot_files.h"
 #include "sim/reference_ao.h"
 
 namespace aoscan::eval {
@@ -304,21 +305,27 @@ TemporalStability::TemporalStability(double cell_m) : cell_m_(cell_m) {
 void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
                             const Image<float>& depth_m, const Image<float>& ssao,
                             const Image<float>& mvao, const MvaoGrid* final_grid) {
-  if (depth_m.width() != ssao.width() || depth_m.height() != ssao.height() ||
-      mvao.width() != ssao.width() || mvao.height() != ssao.height() ||
-      depth_m.width() != k.width || depth_m.height() != k.height)
-    throw input_error("the depth image and the snapshot views differ in size");
+  if (mvao.width() != ssao.width() || mvao.height() != ssao.height() ||
+      ssao.width() != k.width || ssao.height() != k.height)
+    throw input_error("the snapshot views differ in size from the camera");
+  // The depth at the views' resolution or at pyramid level `level` of it (the model raycast's):
+  // its pixel (x, y) is view pixel (x << level, y << level).
+  int level = 0;
+  while (level < 4 && (depth_m.width() << level) < k.width) ++level;
+  if ((depth_m.width() << level) != k.width || (depth_m.height() << level) != k.height)
+    throw input_error("the depth image is neither the snapshot views' size nor a pyramid level of it");
+  const Intrinsics kd = k.scaled(level);
   struct FrameSums {
     std::size_t n = 0;
     std::array<double, kShownCount> sum{};
   };
   std::unordered_map<std::uint64_t, FrameSums> frame;
   FinalDifference difference;
-  for (int y = 0; y < k.height; ++y)
-    for (int x = 0; x < k.width; ++x) {
-      const float z = depth_m(x, y), s = ssao(x, y), m = mvao(x, y);
+  for (int y = 0; y < kd.height; ++y)
+    for (int x = 0; x < kd.width; ++x) {
+      const float z = depth_m(x, y), s = ssao(x << level, y << level), m = mvao(x << level, y << level);
       if (!(z > 0.0f) || !(s >= 0.0f) || !(m >= 0.0f)) continue;
-      const Eigen::Vector3d p = T_world_camera * k.unproject(double(x), double(y), double(z));
+      const Eigen::Vector3d p = T_world_camera * kd.unproject(double(x), double(y), double(z));
       std::optional<float> final_ao = 0.0f;
       if (final_grid) {
         const auto cell = final_grid->cell_of(p);
@@ -454,16 +461,21 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
 TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                                          const RecordingFrames& recording,
                                          const std::vector<StampedPose>& estimate, double cell_m,
-                                         const MvaoGrid* final_grid) {
+                                         const MvaoGrid* final_grid, bool raycast_points) {
   TemporalStability stability(cell_m);
   Image<std::uint16_t> raw;
   Image<float> depth_m;
-  const double metres_per_unit = 1.0 / recording.camera.depth_scale;
   for (const std::uint64_t sequence : snapshot_frames(snapshot_dir)) {
     const std::optional<Pose> pose = frame_pose(recording, estimate, sequence);
     if (!pose) continue;
-    const std::string path =
-        (std::filesystem::path(recording.dir) / recording.depth[sequence].path).string();
+    std::string path = snapshot_path(snapshot_dir, kRaycastDepthView, sequence);
+    double metres_per_unit = 1.0 / kRaycastDepthUnitsPerMetre;
+    const bool raycast = raycast_points && std::filesystem::exists(path);
+    if (!raycast) {
+      path = (std::filesystem::path(recording.dir) / recording.depth[sequence].path).string();
+      metres_per_unit = 1.0 / recording.camera.depth_scale;
+    }
+    stability.count_points_source(raycast);
     const Status status = read_grey16_png(path, raw, sequence);
     if (!status.is_ok()) throw input_error(status.message());
     depth_m.resize(raw.width(), raw.height());

@@ -153,8 +153,10 @@ Image<float> scene_depth(const AnalyticScene& scene, const Intrinsics& intrinsic
 class TemporalStability {
  public:
   explicit TemporalStability(double cell_m);
-  /// `depth_m` at the views' resolution (0 = invalid); `ssao`, `mvao` as shown_ao();
-  /// `final_grid` (optional): the run's final grid, in the world frame of the poses.
+  /// `depth_m` at the views' resolution or at a pyramid level of it (the model raycast's: its
+  /// pixel (x, y) is view pixel (x << level, y << level), unprojected with the level's
+  /// intrinsics; 0 = invalid); `ssao`, `mvao` as shown_ao(); `final_grid` (optional): the run's
+  /// final grid, in the world frame of the poses. Throws input_error for other sizes.
   void add(const Intrinsics& intrinsics, const Pose& T_world_camera, const Image<float>& depth_m,
            const Image<float>& ssao, const Image<float>& mvao,
            const MvaoGrid* final_grid = nullptr);
@@ -175,6 +177,11 @@ class TemporalStability {
   };
   Result result(std::size_t min_frames) const;
   std::size_t frames() const { return frames_; }
+  /// Where the frames' surface points came from: the model raycast the views show
+  /// (raycast_depth_*.png) or the recording's own depth images.
+  void count_points_source(bool raycast) { ++(raycast ? frames_raycast_ : frames_depth_); }
+  std::size_t frames_with_raycast_points() const { return frames_raycast_; }
+  std::size_t frames_with_depth_points() const { return frames_depth_; }
 
   /// Per frame added with a final grid: how far the MVAO shown is from the final grid's AO at the
   /// same pixels. At the run's last frame the grid is the final one, so what remains there is the
@@ -194,6 +201,7 @@ class TemporalStability {
   };
   double cell_m_;
   std::size_t frames_ = 0;
+  std::size_t frames_raycast_ = 0, frames_depth_ = 0;
   bool with_final_ = false;  ///< a final grid was given
   std::unordered_map<std::uint64_t, Sums> cells_;
   std::vector<FinalDifference> final_differences_;
@@ -246,12 +254,14 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
                                    const MvaoGrid& final_grid, const ImageEvalOptions& options);
 
 /// TemporalStability over every frame of `snapshot_dir` with an estimated pose, the surface points
-/// being the recording's own depth at each pixel (depth.txt's PNG of the frame, depth_scale of
-/// camera.json) mapped by the estimated pose. Returns the accumulated measure; frames without a
-/// pose are skipped.
+/// mapped by the estimated pose being those the views show, the model raycast's
+/// (`raycast_depth_*.png` of the snapshots), or, for a frame without it or with `raycast_points`
+/// false, the recording's own depth at each pixel (depth.txt's PNG of the frame, depth_scale of
+/// camera.json). Returns the accumulated measure; frames without a pose are skipped.
 TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                                          const RecordingFrames& recording,
                                          const std::vector<StampedPose>& estimate, double cell_m,
-                                         const MvaoGrid* final_grid = nullptr);
+                                         const MvaoGrid* final_grid = nullptr,
+                                         bool raycast_points = true);
 
 }  // namespace aoscan::eval

@@ -123,7 +123,8 @@ int run(int argc, char** argv) {
       "stability",
       "temporal stability of the AO shown in a replay's snapshot views: per world cell seen in at "
       "least --min-frames snapshot frames, the standard deviation over those frames of its SSAO "
-      "and of its MVAO (surface points from the recording's depth and the estimated poses)");
+      "and of its MVAO (surface points: the model raycast's the views show, raycast_depth_*.png, "
+      "or the recording's depth, at the estimated poses)");
   stability->add_option("SNAPSHOTS", snapshot_dir, "--snapshot folder (ssao_*.png, mvao_*.png)")
       ->required()->check(CLI::ExistingDirectory);
   stability->add_option("--recording", recording_dir, "the replayed recording (camera.json, depth.txt)")
@@ -137,6 +138,10 @@ int run(int argc, char** argv) {
                         "the replay's final MVAO grid (OUT/session/mvao.grid): also the spread of "
                         "its AO at the same pixels, and the occluded cells alone")
       ->check(CLI::ExistingFile);
+  bool depth_points = false;
+  stability->add_flag("--depth-points", depth_points,
+                      "surface points from the recording's depth images even where the snapshots "
+                      "have the model raycast's depth (the measure before raycast_depth_*.png)");
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -149,11 +154,13 @@ int run(int argc, char** argv) {
       if (*stability) {
         std::optional<MvaoGrid> grid;
         if (!grid_path.empty()) grid.emplace(grid_from_saved(read_grid(grid_path)));
-        const TemporalStability s = stability_of_snapshots(snapshot_dir, recording, estimate, cell_m,
-                                                           grid ? &*grid : nullptr);
+        const TemporalStability s = stability_of_snapshots(
+            snapshot_dir, recording, estimate, cell_m, grid ? &*grid : nullptr, !depth_points);
         const TemporalStability::Result r = s.result(min_frames);
         nlohmann::json out;
         out["frames"] = s.frames();
+        out["frames_with_raycast_points"] = s.frames_with_raycast_points();
+        out["frames_with_depth_points"] = s.frames_with_depth_points();
         out["cell_m"] = cell_m;
         out["min_frames"] = min_frames;
         const auto spread_json = [&](const TemporalStability::Spread& sp) {
@@ -179,6 +186,9 @@ int run(int argc, char** argv) {
         }
         std::printf("frames              %zu with a pose; cells of %.1f cm seen in >= %zu of them\n",
                     s.frames(), cell_m * 100, min_frames);
+        std::printf("surface points      the model raycast's in %zu frames, the recording's depth "
+                    "in %zu\n",
+                    s.frames_with_raycast_points(), s.frames_with_depth_points());
         std::printf("%-22s %8s %7s %17s %17s %17s\n", "cells", "count", "frames",
                     "SSAO std mean/med", "MVAO std mean/med", "final std mean/med");
         const auto row = [&](const char* name, const TemporalStability::Spread& sp) {
