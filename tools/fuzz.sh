@@ -71,8 +71,9 @@ fi
 # A 64 MB quarantine (ASan's default: 256 MB) still catches a use after free within many
 # inputs, and keeps the parsers' small allocations in cache: about 3x the executions per second.
 # No allocation stacks are recorded (malloc_context_size=0; 1.2x the YAML targets' executions per
-# second): a finding's report names where it happened, and reproducing its input with
-# ASAN_OPTIONS=detect_leaks=1 gives where the memory was allocated and freed.
+# second): a finding's report names where it happened, and reproducing its input outside this
+# script (D/TARGET_fuzz FILE, ASan's default options) gives where the memory was allocated and
+# freed.
 export ASAN_OPTIONS="detect_leaks=1:quarantine_size_mb=64:malloc_context_size=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
