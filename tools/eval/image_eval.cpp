@@ -475,7 +475,6 @@ TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
       path = (std::filesystem::path(recording.dir) / recording.depth[sequence].path).string();
       metres_per_unit = 1.0 / recording.camera.depth_scale;
     }
-    stability.count_points_source(raycast);
     const Status status = read_grey16_png(path, raw, sequence);
     if (!status.is_ok()) throw input_error(status.message());
     depth_m.resize(raw.width(), raw.height());
@@ -486,6 +485,7 @@ TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
     stability.add(recording.camera.intrinsics, *pose, depth_m,
                   read_shown_ao(snapshot_dir, "ssao", sequence),
                   read_shown_ao(snapshot_dir, "mvao", sequence), final_grid);
+    if (raycast) stability.count_raycast_points();
   }
   return stability;
 }

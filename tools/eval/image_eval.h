@@ -178,10 +178,11 @@ class TemporalStability {
   Result result(std::size_t min_frames) const;
   std::size_t frames() const { return frames_; }
   /// Where the frames' surface points came from: the model raycast the views show
-  /// (raycast_depth_*.png) or the recording's own depth images.
-  void count_points_source(bool raycast) { ++(raycast ? frames_raycast_ : frames_depth_); }
+  /// (raycast_depth_*.png; the caller counts those frames) or the recording's own depth images
+  /// (the other frames added).
+  void count_raycast_points() { ++frames_raycast_; }
   std::size_t frames_with_raycast_points() const { return frames_raycast_; }
-  std::size_t frames_with_depth_points() const { return frames_depth_; }
+  std::size_t frames_with_depth_points() const { return frames_ - frames_raycast_; }
 
   /// Per frame added with a final grid: how far the MVAO shown is from the final grid's AO at the
   /// same pixels. At the run's last frame the grid is the final one, so what remains there is the
@@ -201,7 +202,7 @@ class TemporalStability {
   };
   double cell_m_;
   std::size_t frames_ = 0;
-  std::size_t frames_raycast_ = 0, frames_depth_ = 0;
+  std::size_t frames_raycast_ = 0;
   bool with_final_ = false;  ///< a final grid was given
   std::unordered_map<std::uint64_t, Sums> cells_;
   std::vector<FinalDifference> final_differences_;
