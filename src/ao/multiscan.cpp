@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <tbb/blocked_range.h>
@@ -92,6 +93,38 @@ bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b,
   return grown.intersects(a);
 }
 
+bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
+                         const Eigen::Vector3f& scanner_i, int& px, int& py) {
+  if (!map_j.camera.pixel_of(q, px, py)) return false;
+  if (!map_j.has_point(px, py)) {
+    // A hole: the measured neighbour nearest to q stands for the point at q's pixel.
+    const int w = map_j.camera.width, h = map_j.camera.height;
+    const bool wrap = map_j.camera.projection == ScanProjection::kEquirectangular;
+    float best = std::numeric_limits<float>::infinity();
+    int bx = -1, by = -1;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        int x = px + dx;
+        const int y = py + dy;
+        if (wrap) x = (x + w) % w;
+        if (x < 0 || y < 0 || x >= w || y >= h || !map_j.has_point(x, y)) continue;
+        const float d2 = (map_j.points(x, y) - q).squaredNorm();
+        if (d2 < best) {
+          best = d2;
+          bx = x;
+          by = y;
+        }
+      }
+    if (bx < 0) return false;
+    px = bx;
+    py = by;
+  }
+  const Eigen::Vector3f& p_ij = map_j.points(px, py);
+  const float t = std::max(rad_i, point_radius(map_j.camera, map_j.camera.depth(p_ij)));
+  if (!((q - p_ij).norm() < 2.0f * t)) return false;
+  return (scanner_i - p_ij).dot(map_j.normals(px, py)) > 0.0f;
+}
+
 MvaoAccumulator::MvaoAccumulator(const ScanAo& scan_i, const MultiScanParams& params)
     : scan_i_(scan_i), params_(params) {
   check_neighbourhood(params.neighbourhood);
@@ -119,13 +152,9 @@ void MvaoAccumulator::add(const ScanAo& scan_j, bool same_scan) {
             if (!map_i.has_point(x, y)) continue;
             const Eigen::Vector3f& p = map_i.points(x, y);
             const Eigen::Vector3f q = f.R * p + f.t;
-            int px = 0, py = 0;
-            if (!map_j.camera.pixel_of(q, px, py) || !map_j.has_point(px, py)) continue;
-            const Eigen::Vector3f& p_ij = map_j.points(px, py);
             const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
-            const float t = std::max(rad_i, point_radius(map_j.camera, map_j.camera.depth(p_ij)));
-            if (!((q - p_ij).norm() < 2.0f * t)) continue;
-            if (!((f.scanner_i - p_ij).dot(map_j.normals(px, py)) > 0.0f)) continue;
+            int px = 0, py = 0;
+            if (!corresponding_pixel(map_j, q, rad_i, f.scanner_i, px, py)) continue;
             const std::size_t k = static_cast<std::size_t>(y) * width + x;
             Sum sum{ao_w_[k], w_[k]};
             add_samples(scan_j, f, px, py, rad_i, params_, sum);

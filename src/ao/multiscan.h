@@ -52,12 +52,20 @@ Eigen::AlignedBox3f scan_world_box(const RangeMap& map);
 /// `margin_m`, meet.
 bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b, float margin_m);
 
+/// Eq. 6-7 for one point of scan i, `q` (metres) in scan j's frame, `rad_i` its point radius
+/// there, `scanner_i` scanner i's position in scan j's frame: the pixel (px, py) of scan j whose
+/// point p_ij joins L_2. p_ij is the point scan j measured at q's pixel or, when that pixel has
+/// none (a hole of the map: a missed return, or a cloud rebuilt into the Sec. 7 map, which holds
+/// a point in about half of its pixels), the point of its 8 neighbours nearest to q (ties to the
+/// first in row order); it joins when it lies within 2 t of q (t = the larger point radius of the
+/// two, point_radius()) and faces scanner i ((scanner_i - p_ij) . n_ij > 0).
+bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
+                         const Eigen::Vector3f& scanner_i, int& px, int& py);
+
 /// Eq. 6-9 for the points of one scan i, one candidate scan j at a time, so that a caller can hold
 /// only scan i and the scan j it adds (the out-of-core path): each point p_i is taken into scan
 /// j's frame (T_world_scanner_j^-1 T_world_scanner_i p_i), projected into its map, and the point
-/// p_ij measured there joins L_2 when it lies within 2 t of the projected point (t = the larger
-/// point radius of the two, point_radius()) and faces scanner i ((b - p_ij) . n_ij > 0, b =
-/// scanner i in scan j's frame). Each member of L_2 contributes the N x N pixels around it in
+/// p_ij measured there joins L_2 by corresponding_pixel(). Each member of L_2 contributes the N x N pixels around it in
 /// scan j's map (those with a point and a normal facing scanner i), each with its SSAO weighted by
 /// w = w_d w_n w_b: w_d w_n of Eq. 10-11 for the sample seen from its own scanner (view_weight()),
 /// w_b = min(d_b / (t_p alpha), 1) of Eq. 12 with alpha = rad(p_i) / rad(sample). Adding the

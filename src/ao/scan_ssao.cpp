@@ -30,6 +30,39 @@ inline int wrap_column(int x, int width) {
   return x;
 }
 
+/// The pixel with a point that a sample at offset (du, dv) pixels from pixel (x, y) reads: the
+/// pixel nearest to it or, when that is a hole, the neighbour on the side the offset leans to,
+/// along the axis it leans to more, then the other axis, then the diagonal. A map rebuilt from
+/// a cloud (Sec. 7) holds a point in about half of its pixels; without this a sample falling
+/// between two points would be lost and the pixel's AO rest on half of its samples. False when
+/// the sample leaves the map (a pinhole map's sides, either map's top and bottom) or none of
+/// those pixels has a point.
+bool sample_pixel(const RangeMap& map, int x, int y, float du, float dv, bool wrap, int& sx,
+                  int& sy) {
+  const int w = map.camera.width, h = map.camera.height;
+  const long iu = std::lround(du), iv = std::lround(dv);
+  int x0 = x + static_cast<int>(iu);
+  const int y0 = y + static_cast<int>(iv);
+  if (wrap) x0 = wrap_column(x0, w);
+  if (x0 < 0 || y0 < 0 || x0 >= w || y0 >= h) return false;
+  auto take = [&](int cx, int cy) {
+    if (wrap) cx = wrap_column(cx, w);
+    if (cx < 0 || cy < 0 || cx >= w || cy >= h || !map.has_point(cx, cy)) return false;
+    sx = cx;
+    sy = cy;
+    return true;
+  };
+  if (take(x0, y0)) return true;
+  const float lean_u = du - static_cast<float>(iu), lean_v = dv - static_cast<float>(iv);
+  const int ex = lean_u >= 0.0f ? 1 : -1, ey = lean_v >= 0.0f ? 1 : -1;
+  if (std::abs(lean_u) >= std::abs(lean_v)) {
+    if (take(x0 + ex, y0) || take(x0, y0 + ey)) return true;
+  } else if (take(x0, y0 + ey) || take(x0 + ex, y0)) {
+    return true;
+  }
+  return take(x0 + ex, y0 + ey);
+}
+
 /// The unsmoothed SSAO of pixel (x, y).
 float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& pattern, int x,
                int y) {
@@ -54,11 +87,9 @@ float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& p
   int counted = 0;
   for (int k = 0; k < pattern.samples; ++k) {
     const Eigen::Vector2f& o = pattern.offsets[cls * pattern.samples + k];
-    int sx = x + static_cast<int>(std::lround(o.x() * radius_px));
-    const int sy = y + static_cast<int>(std::lround(o.y() * radius_px));
-    if (wrap) sx = wrap_column(sx, camera.width);
-    if (sx < 0 || sy < 0 || sx >= camera.width || sy >= camera.height) continue;
-    if ((sx == x && sy == y) || !map.has_point(sx, sy)) continue;
+    int sx = 0, sy = 0;
+    if (!sample_pixel(map, x, y, o.x() * radius_px, o.y() * radius_px, wrap, sx, sy)) continue;
+    if (sx == x && sy == y) continue;
     const Eigen::Vector3f v = map.points(sx, sy) - p;
     const float d2 = v.squaredNorm();
     if (!(d2 > 0.0f)) continue;

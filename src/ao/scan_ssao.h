@@ -15,12 +15,13 @@ namespace aoscan {
 /// SSAO of every point of `map` (normals set): a screen-space disk of radius r_s *
 /// pixels_per_metre_at_1m() / depth pixels (the paper's simplification: one radius per depth,
 /// whatever the pixel's place in the map; an equirectangular map wraps in azimuth), sampled by
-/// make_ssao_pattern(config, pattern_index) at the nearest pixels; the sample terms of
-/// config.estimator as in compute_ssao() (paper, obscurance, alchemy without the area factor;
-/// the slice estimators and statvo fall back to obscurance), the bias scaled by the point's
-/// depth. Then a 5 x 5 Gaussian (sigma 1 px) over the pixels with a point. `ao` takes the map's
-/// size: [0, 1], 1 = open; 1 where there is no point. Rows run in parallel; the result does not depend on the
-/// thread count.
+/// make_ssao_pattern(config, pattern_index) at the nearest pixels (a sample in a hole of the map
+/// reads the neighbouring pixel it leans to: a cloud's Sec. 7 map holds a point in about half of
+/// its pixels); the sample terms of config.estimator as in compute_ssao() (paper, obscurance,
+/// alchemy without the area factor; the slice estimators and statvo fall back to obscurance),
+/// the bias scaled by the point's depth. Then a 5 x 5 Gaussian (sigma 1 px) over the pixels with
+/// a point. `ao` takes the map's size: [0, 1], 1 = open; 1 where there is no point. Rows run in
+/// parallel; the result does not depend on the thread count.
 void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_t pattern_index,
                        Image<float>& ao);
 

@@ -2,6 +2,7 @@
 #include "ao/multiscan.h"
 
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -120,6 +121,41 @@ TEST(MultiScan, ScansThatCannotMeetAreNotPaired) {
   EXPECT_EQ(stats.pairs_tested, 0);
   EXPECT_EQ(stats.pairs_skipped, 2);
   EXPECT_EQ(stats.isolated_scans.size(), 2u);
+}
+
+/// Removes pixel (x, y)'s point from `scan` (a hole of its map).
+void make_hole(ScanAo& scan, int x, int y) {
+  scan.map.points(x, y).setZero();
+  scan.map.normals(x, y).setZero();
+}
+
+TEST(MultiScan, APointOverAHoleTakesTheNearestMeasuredNeighbour) {
+  // Scan B sees the same plane from the same pose with a hole at A's pixel (16, 12) and at three
+  // of its four side neighbours: the point nearest to A's is B's (16, 13) (one pixel away; the
+  // diagonals are sqrt(2) away), whose SSAO joins with its weight.
+  std::vector<ScanAo> scans = {plane_scan(Pose::identity(), 2.0f, 0.2f, 100.0f),
+                               plane_scan(Pose::identity(), 2.0f, 0.8f, 100.0f)};
+  for (int y = 0; y < kCamera.height; ++y)
+    for (int x = 0; x < kCamera.width; ++x) scans[1].ssao(x, y) = 0.01f * ((x * 7 + y * 3) % 97);
+  for (const auto& [x, y] : {std::pair{16, 12}, {16, 11}, {15, 12}, {17, 12}})
+    make_hole(scans[1], x, y);
+  std::vector<Image<float>> mvao;
+  const MultiScanStats stats = integrate_scans(scans, no_border(), mvao);
+  // Every point of A finds one of B (B's holes have measured neighbours within 2 t).
+  EXPECT_EQ(stats.points_shared, 2 * kCamera.width * kCamera.height - 4);
+  const float w_a = view_weight(scans[0].map.points(16, 12), scans[0].map.normals(16, 12), 0.5f, 5.0f);
+  const float w_b = view_weight(scans[1].map.points(16, 13), scans[1].map.normals(16, 13), 0.5f, 5.0f);
+  EXPECT_NEAR(mvao[0](16, 12), (0.2f * w_a + scans[1].ssao(16, 13) * w_b) / (w_a + w_b), 1e-6f);
+
+  // A 5 x 5 hole in B: A's points over its inner 3 x 3 have no measured neighbour there and keep
+  // their SSAO; the others (and all of B's 743 points) are shared.
+  for (int y = 10; y <= 14; ++y)
+    for (int x = 14; x <= 18; ++x) make_hole(scans[1], x, y);
+  const int pixels = kCamera.width * kCamera.height;
+  EXPECT_EQ(integrate_scans(scans, no_border(), mvao).points_shared, (pixels - 9) + (pixels - 25));
+  EXPECT_EQ(mvao[0](16, 12), 0.2f);
+  EXPECT_EQ(mvao[0](15, 11), 0.2f);
+  EXPECT_NE(mvao[0](14, 10), 0.2f);
 }
 
 TEST(MultiScan, TheNeighbourhoodAveragesTheNByNPixelsWithTheirWeights) {

@@ -230,7 +230,7 @@ std::vector<Image<std::uint8_t>> coverage_counts(const std::vector<ScanAo>& scan
     for (std::size_t j = 0; j < n; ++j) {
       if (j == i || !scan_boxes_meet(boxes[i], boxes[j], params.pair_margin_m)) continue;
       const RangeMap& map_j = scans[j].map;
-      // The arithmetic of MvaoAccumulator::add, so that the same points pass.
+      // The transform of MvaoAccumulator::add, so that the same points pass.
       const Pose T_j_i = map_j.T_world_scanner.inverse() * map_i.T_world_scanner;
       const Eigen::Matrix3f R = T_j_i.rotation().cast<float>();
       const Eigen::Vector3f t = T_j_i.translation().cast<float>();
@@ -241,15 +241,9 @@ std::vector<Image<std::uint8_t>> coverage_counts(const std::vector<ScanAo>& scan
                               if (!map_i.has_point(x, y)) continue;
                               const Eigen::Vector3f& p = map_i.points(x, y);
                               const Eigen::Vector3f q = R * p + t;
-                              int px = 0, py = 0;
-                              if (!map_j.camera.pixel_of(q, px, py) || !map_j.has_point(px, py))
-                                continue;
-                              const Eigen::Vector3f& p_ij = map_j.points(px, py);
                               const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
-                              const float r = std::max(
-                                  rad_i, point_radius(map_j.camera, map_j.camera.depth(p_ij)));
-                              if (!((q - p_ij).norm() < 2.0f * r)) continue;
-                              if (!((t - p_ij).dot(map_j.normals(px, py)) > 0.0f)) continue;
+                              int px = 0, py = 0;
+                              if (!corresponding_pixel(map_j, q, rad_i, t, px, py)) continue;
                               if (count(x, y) < 255) ++count(x, y);
                             }
                         });
