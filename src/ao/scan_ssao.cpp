@@ -30,6 +30,10 @@ inline int wrap_column(int x, int width) {
   return x;
 }
 
+/// Bits of a pixel's kind: it has a point; it has a point and a normal (it gets an SSAO).
+constexpr std::uint8_t kPoint = 1;
+constexpr std::uint8_t kNormal = 2;
+
 /// The pixel with a point that a sample at offset (du, dv) pixels from pixel (x, y) reads: the
 /// pixel nearest to it or, when that is a hole, the neighbour on the side the offset leans to,
 /// along the axis it leans to more, then the other axis, then the diagonal. A map rebuilt from
@@ -37,9 +41,9 @@ inline int wrap_column(int x, int width) {
 /// between two points would be lost and the pixel's AO rest on half of its samples. False when
 /// the sample leaves the map (a pinhole map's sides, either map's top and bottom) or none of
 /// those pixels has a point.
-bool sample_pixel(const RangeMap& map, int x, int y, float du, float dv, bool wrap, int& sx,
-                  int& sy) {
-  const int w = map.camera.width, h = map.camera.height;
+bool sample_pixel(const Image<std::uint8_t>& kind, int x, int y, float du, float dv, bool wrap,
+                  int& sx, int& sy) {
+  const int w = kind.width(), h = kind.height();
   const long iu = std::lround(du), iv = std::lround(dv);
   int x0 = x + static_cast<int>(iu);
   const int y0 = y + static_cast<int>(iv);
@@ -47,7 +51,7 @@ bool sample_pixel(const RangeMap& map, int x, int y, float du, float dv, bool wr
   if (x0 < 0 || y0 < 0 || x0 >= w || y0 >= h) return false;
   auto take = [&](int cx, int cy) {
     if (wrap) cx = wrap_column(cx, w);
-    if (cx < 0 || cy < 0 || cx >= w || cy >= h || !map.has_point(cx, cy)) return false;
+    if (cx < 0 || cy < 0 || cx >= w || cy >= h || (kind(cx, cy) & kPoint) == 0) return false;
     sx = cx;
     sy = cy;
     return true;
@@ -64,8 +68,8 @@ bool sample_pixel(const RangeMap& map, int x, int y, float du, float dv, bool wr
 }
 
 /// The unsmoothed SSAO of pixel (x, y).
-float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& pattern, int x,
-               int y) {
+float pixel_ao(const RangeMap& map, const Image<std::uint8_t>& kind, const AoConfig& config,
+               const SsaoPattern& pattern, int x, int y) {
   const Eigen::Vector3f& p = map.points(x, y);
   const Eigen::Vector3f& n = map.normals(x, y);
   const ScanCamera& camera = map.camera;
@@ -88,7 +92,7 @@ float pixel_ao(const RangeMap& map, const AoConfig& config, const SsaoPattern& p
   for (int k = 0; k < pattern.samples; ++k) {
     const Eigen::Vector2f& o = pattern.offsets[cls * pattern.samples + k];
     int sx = 0, sy = 0;
-    if (!sample_pixel(map, x, y, o.x() * radius_px, o.y() * radius_px, wrap, sx, sy)) continue;
+    if (!sample_pixel(kind, x, y, o.x() * radius_px, o.y() * radius_px, wrap, sx, sy)) continue;
     if (sx == x && sy == y) continue;
     const Eigen::Vector3f v = map.points(sx, sy) - p;
     const float d2 = v.squaredNorm();
@@ -121,17 +125,19 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
                        Image<float>& ao) {
   const int w = map.camera.width, h = map.camera.height;
   const SsaoPattern pattern = make_ssao_pattern(config, pattern_index);
-  // Which pixels have a point and a normal: read 26 times a pixel below.
-  Image<std::uint8_t> valid(w, h, 0);
+  // Which pixels have a point, and which also a normal: read about 26 times a pixel below.
+  Image<std::uint8_t> kind(w, h, 0);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
-      for (int x = 0; x < w; ++x) valid(x, y) = has_normal(map, x, y) ? 1 : 0;
+      for (int x = 0; x < w; ++x)
+        kind(x, y) = static_cast<std::uint8_t>((map.has_point(x, y) ? kPoint : 0) |
+                                               (has_normal(map, x, y) ? kNormal : 0));
   });
   Image<float> raw(w, h, 1.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x)
-        raw(x, y) = valid(x, y) ? pixel_ao(map, config, pattern, x, y) : 1.0f;
+        raw(x, y) = (kind(x, y) & kNormal) != 0 ? pixel_ao(map, kind, config, pattern, x, y) : 1.0f;
   });
   // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
   static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};
@@ -140,7 +146,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
-        if (!valid(x, y)) {
+        if ((kind(x, y) & kNormal) == 0) {
           ao(x, y) = 1.0f;
           continue;
         }
@@ -150,7 +156,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
             int sx = x + dx;
             const int sy = y + dy;
             if (wrap) sx = wrap_column(sx, w);
-            if (sx < 0 || sy < 0 || sx >= w || sy >= h || !valid(sx, sy)) continue;
+            if (sx < 0 || sy < 0 || sx >= w || sy >= h || (kind(sx, sy) & kNormal) == 0) continue;
             const float k = kTaps[dx + 2] * kTaps[dy + 2];
             sum += k * raw(sx, sy);
             weights += k;
