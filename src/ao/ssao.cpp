@@ -383,16 +383,6 @@ SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index)
   return pat;
 }
 
-float view_weight(const Eigen::Vector3f& p_camera, const Eigen::Vector3f& n_camera, float d_min_m,
-                  float d_max_m) {
-  const float dist = p_camera.norm();
-  if (!(dist > 0.0f) || !std::isfinite(dist)) return 0.0f;
-  const float w_d = std::max(1.0f - std::max(dist - d_min_m, 0.0f) / d_max_m, 0.1f);
-  const float w_n = std::max(-n_camera.dot(p_camera) / dist, 0.0f);
-  const float w = w_d * w_n;
-  return std::isfinite(w) ? w : 0.0f;
-}
-
 bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& normal) {
   return vertex.z() > 0.0f && vertex.allFinite() && normal.allFinite() &&
          normal.squaredNorm() > 0.0f;

@@ -49,6 +49,8 @@
 /// and weight 0; pixels without any counted sample get AO 1.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -86,8 +88,15 @@ SsaoPattern make_ssao_pattern(const AoConfig& config, std::uint64_t frame_index)
 /// Eq. 10-11 weight of a camera-frame point `p_camera` (metres) with unit normal `n_camera`:
 /// w_d * w_n with w_d = max(1 - max(|p| - d_min, 0) / d_max, 0.1) (|p| = distance to the camera
 /// centre, as printed) and w_n = max(n . l, 0), l = -p / |p| the direction to the camera.
-float view_weight(const Eigen::Vector3f& p_camera, const Eigen::Vector3f& n_camera, float d_min_m,
-                  float d_max_m);
+inline float view_weight(const Eigen::Vector3f& p_camera, const Eigen::Vector3f& n_camera,
+                         float d_min_m, float d_max_m) {
+  const float dist = p_camera.norm();
+  if (!(dist > 0.0f) || !std::isfinite(dist)) return 0.0f;
+  const float w_d = std::max(1.0f - std::max(dist - d_min_m, 0.0f) / d_max_m, 0.1f);
+  const float w_n = std::max(-n_camera.dot(p_camera) / dist, 0.0f);
+  const float w = w_d * w_n;
+  return std::isfinite(w) ? w : 0.0f;
+}
 
 /// True when a point-map pixel can be used: finite vertex with z > 0 and a finite, non-zero normal.
 bool ssao_pixel_valid(const Eigen::Vector3f& vertex, const Eigen::Vector3f& normal);

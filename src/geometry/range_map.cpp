@@ -175,8 +175,4 @@ void compute_scan_normals(RangeMap& map) {
   compute_range_map_normals(map, 0.05f, 2, kScanNormalSupportM, kScanNormalMinPoints);
 }
 
-float point_radius(const ScanCamera& camera, float depth_m) {
-  return depth_m / camera.pixels_per_metre_at_1m();
-}
-
 }  // namespace aoscan

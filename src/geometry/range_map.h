@@ -76,6 +76,8 @@ inline constexpr int kScanNormalMinPoints = 16;
 /// footprint depth / pixels_per_metre_at_1m(). The rad(p) of Eq. 12's alpha = rad(p_i) / rad(p_ij)
 /// for range maps, whose point spacing is set by the pixel grid (the paper estimates it from the
 /// 32 nearest points of an unstructured cloud).
-float point_radius(const ScanCamera& camera, float depth_m);
+inline float point_radius(const ScanCamera& camera, float depth_m) {
+  return depth_m / camera.pixels_per_metre_at_1m();
+}
 
 }  // namespace aoscan

@@ -80,15 +80,6 @@ bool ScanCamera::pixel_of(const Eigen::Vector3f& p, int& x, int& y) const {
   return x < width && y < height;
 }
 
-float ScanCamera::depth(const Eigen::Vector3f& p) const {
-  return projection == ScanProjection::kPinhole ? p.z() : p.norm();
-}
-
-float ScanCamera::pixels_per_metre_at_1m() const {
-  if (projection == ScanProjection::kPinhole) return static_cast<float>(pinhole.fx);
-  return static_cast<float>(width / (2.0 * kPi));
-}
-
 bool ScanCamera::valid() const {
   if (width <= 0 || height <= 0) return false;
   if (projection == ScanProjection::kEquirectangular) return width == 2 * height;

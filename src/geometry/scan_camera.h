@@ -5,6 +5,8 @@
 /// and point radii.
 #pragma once
 
+#include <cmath>
+
 #include <Eigen/Core>
 
 #include "core/intrinsics.h"
@@ -55,12 +57,17 @@ struct ScanCamera {
   bool pixel_of(const Eigen::Vector3f& p_scanner, int& x, int& y) const;
   /// The depth of a scanner-frame point as this camera measures it: z for a pinhole camera, the
   /// distance to the scanner for an equirectangular map.
-  float depth(const Eigen::Vector3f& p_scanner) const;
+  float depth(const Eigen::Vector3f& p_scanner) const {
+    return projection == ScanProjection::kPinhole ? p_scanner.z() : p_scanner.norm();
+  }
   /// Pixels per metre at depth 1 m across the map's x axis (pinhole: fx; equirectangular:
   /// width / (2 pi) at the equator). A sphere of radius r at depth d covers about
   /// r * pixels_per_metre_at_1m() / d pixels: the adaptive SSAO disk radius of Sec. 4 (the
   /// equirectangular row scale is the same, height / pi = width / (2 pi)).
-  float pixels_per_metre_at_1m() const;
+  float pixels_per_metre_at_1m() const {
+    if (projection == ScanProjection::kPinhole) return static_cast<float>(pinhole.fx);
+    return static_cast<float>(width / (2.0 * M_PI));
+  }
   /// True when the model is usable (positive size; a pinhole camera with valid intrinsics of the
   /// same size).
   bool valid() const;
