@@ -65,12 +65,12 @@ bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float 
 /// Eq. 6-9 for the points of one scan i, one candidate scan j at a time, so that a caller can hold
 /// only scan i and the scan j it adds (the out-of-core path): each point p_i is taken into scan
 /// j's frame (T_world_scanner_j^-1 T_world_scanner_i p_i), projected into its map, and the point
-/// p_ij measured there joins L_2 by corresponding_pixel(). Each member of L_2 contributes the N x N pixels around it in
-/// scan j's map (those with a point and a normal facing scanner i), each with its SSAO weighted by
-/// w = w_d w_n w_b: w_d w_n of Eq. 10-11 for the sample seen from its own scanner (view_weight()),
-/// w_b = min(d_b / (t_p alpha), 1) of Eq. 12 with alpha = rad(p_i) / rad(sample). Adding the
-/// candidates in the same order gives the same sums, bit for bit, whatever else is held in
-/// memory. Rows run in parallel; the result does not depend on the thread count.
+/// p_ij measured there joins L_2 by corresponding_pixel(). Each member of L_2 contributes the N x N
+/// pixels around it in scan j's map (those with a point and a normal facing scanner i), each with
+/// its SSAO weighted by w = w_d w_n w_b: w_d w_n of Eq. 10-11 for the sample seen from its own
+/// scanner (view_weight()), w_b = min(d_b / (t_p alpha), 1) of Eq. 12 with alpha = rad(p_i) /
+/// rad(sample). Adding the candidates in the same order gives the same sums, bit for bit, whatever
+/// else is held in memory. Rows run in parallel; the result does not depend on the thread count.
 class MvaoAccumulator {
  public:
   /// Starts scan i (which must outlive the accumulator). Throws usage_error on a bad

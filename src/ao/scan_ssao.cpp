@@ -20,7 +20,6 @@ using detail::kMaxRadiusPx;
 using detail::pattern_class;
 using detail::smoothstep01;
 
-
 /// Column x of a map that wraps around in x (equirectangular): one addition or subtraction for
 /// the columns just off either edge, the usual case.
 inline int wrap_column(int x, int width) {

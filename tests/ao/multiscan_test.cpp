@@ -143,8 +143,10 @@ TEST(MultiScan, APointOverAHoleTakesTheNearestMeasuredNeighbour) {
   const MultiScanStats stats = integrate_scans(scans, no_border(), mvao);
   // Every point of A finds one of B (B's holes have measured neighbours within 2 t).
   EXPECT_EQ(stats.points_shared, 2 * kCamera.width * kCamera.height - 4);
-  const float w_a = view_weight(scans[0].map.points(16, 12), scans[0].map.normals(16, 12), 0.5f, 5.0f);
-  const float w_b = view_weight(scans[1].map.points(16, 13), scans[1].map.normals(16, 13), 0.5f, 5.0f);
+  const float w_a =
+      view_weight(scans[0].map.points(16, 12), scans[0].map.normals(16, 12), 0.5f, 5.0f);
+  const float w_b =
+      view_weight(scans[1].map.points(16, 13), scans[1].map.normals(16, 13), 0.5f, 5.0f);
   EXPECT_NEAR(mvao[0](16, 12), (0.2f * w_a + scans[1].ssao(16, 13) * w_b) / (w_a + w_b), 1e-6f);
 
   // A 5 x 5 hole in B: A's points over its inner 3 x 3 have no measured neighbour there and keep
