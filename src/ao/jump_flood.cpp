@@ -145,6 +145,9 @@ BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<flo
   const std::size_t rank = nearest_rank_index(values.size(), 0.95);
   std::nth_element(values.begin(), values.begin() + rank, values.end());
   stats.threshold = values[rank];
+  const std::size_t middle = nearest_rank_index(values.size(), 0.5);
+  std::nth_element(values.begin(), values.begin() + middle, values.end());
+  stats.threshold = std::max(stats.threshold, kBorderNoiseMedians * values[middle]);
   Image<std::uint8_t> seeds(w, h, 0);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {

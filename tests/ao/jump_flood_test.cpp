@@ -119,5 +119,29 @@ TEST(BorderDistance, AFlatScanWithoutHolesHasOnlyItsOuterBorder) {
   EXPECT_FLOAT_EQ(d(80, 60), 59.0f);  // the bottom row is nearest
 }
 
+TEST(BorderDistance, RangeNoiseAboveTheDepthFloorMakesNoEdges) {
+  // A laser's 2 mm range noise at 2 m: its Laplacian (sigma about 9 mm) passes the 0.95
+  // percentile and the 1 % depth floor (20 mm) at about 1 % of the pixels; the noise floor (24
+  // medians of the Laplacian, about 0.15 m here) leaves only the outer ring and the two columns
+  // beside the 0.3 m step as edges.
+  const int w = 160, h = 120;
+  const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
+  Image<float> depth(w, h, 0.0f);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 0.002f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) depth(x, y) = (x < 80 ? 2.0f : 2.3f) + noise(rng);
+  RangeMap map;
+  range_map_from_depth(depth, k, map);
+  Image<float> d;
+  const BorderStats stats = border_distance(map, 0.01f, d);
+  EXPECT_GT(stats.threshold, 0.1f);
+  EXPECT_LT(stats.threshold, 0.2f);
+  EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2) + 2 * (h - 2));
+  EXPECT_FLOAT_EQ(d(40, 60), 39.0f);  // 40 from the left edge, 39 from column 79
+  EXPECT_FLOAT_EQ(d(79, 60), 0.0f);
+  EXPECT_FLOAT_EQ(d(80, 60), 0.0f);
+}
+
 }  // namespace
 }  // namespace aoscan

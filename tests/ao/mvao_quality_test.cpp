@@ -34,25 +34,24 @@ TEST(MvaoQuality, ThreeLaserScansOfTheRoomMeetTheTarget) {
   set.equirect_height = 320;
   const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
   print(r);
-  // Measured: SSAO 0.874, MVAO 0.941 (3x3 0.944, without w_b 0.945); step error 0.0183 with w_b,
+  // Measured: SSAO 0.874, MVAO 0.954 (3x3 0.936, without w_b 0.945); step error 0.0162 with w_b,
   // 0.0222 without, over 1005 border pairs.
   EXPECT_GT(r.evaluated, 50000);
   EXPECT_GT(r.border_pairs, 500);
   EXPECT_GE(r.mvao_r, 0.90);
   EXPECT_GE(r.mvao_r, r.ssao_r + 0.05);
   EXPECT_GE(r.mvao_3x3_r, 0.90);
-  // w_b makes the MVAO's step across coverage borders closer to the reference's.
+  // w_b makes the MVAO's step across coverage borders closer to the reference's, and raises r
+  // now that the range noise makes no edges (kBorderNoiseMedians; before it w_b cost 0.004 here).
   EXPECT_LT(r.wb_step_error, 0.9 * r.no_wb_step_error);
-  // ... at a cost in r of 0.004 here (up to 0.007 on the benchmark's 360-degree laser sets, and
-  // as much without range noise; depth cameras gain r from w_b: BENCHMARKS.md); tolerance 0.005.
-  EXPECT_GE(r.mvao_r, r.mvao_no_wb_r - 0.005);
+  EXPECT_GT(r.mvao_r, r.mvao_no_wb_r);
 }
 
 TEST(MvaoQuality, ThreeDepthCameraFramesOfTheCornerGainLessButSmoothTheirSeams) {
   // 320 x 240 frames (fx = 262.5) with 2 mm range noise through the depth preprocessing. Each
   // frame's own SSAO is already close to the MVAO's ceiling here (with the scene's exact normals
   // the SSAO reaches 0.91, the MVAO 0.94 on the benchmark's 640 x 480 frames), so the MVAO gains
-  // 0.025, not the 0.05 of the target; it does clear r 0.90. The frustum edges are coverage
+  // 0.034, not the 0.05 of the target; it does clear r 0.90. The frustum edges are coverage
   // borders on open surfaces, the seams w_b is for.
   test::QualitySet set;
   set.scene = "corner";
@@ -62,7 +61,7 @@ TEST(MvaoQuality, ThreeDepthCameraFramesOfTheCornerGainLessButSmoothTheirSeams) 
   set.pinhole_height = 240;
   const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
   print(r);
-  // Measured: SSAO 0.894, MVAO 0.919 (3x3 0.923, without w_b 0.917); step error 0.0052 with
+  // Measured: SSAO 0.894, MVAO 0.928 (3x3 0.926, without w_b 0.917); step error 0.0051 with
   // w_b, 0.0121 without, over 1280 border pairs.
   EXPECT_GT(r.evaluated, 20000);
   EXPECT_GT(r.border_pairs, 1000);
