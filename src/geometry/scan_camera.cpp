@@ -8,7 +8,7 @@
 namespace aoscan {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi = M_PI;  // as pixels_per_metre_at_1m() in the header
 
 }  // namespace
 

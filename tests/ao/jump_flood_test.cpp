@@ -100,19 +100,27 @@ TEST(BorderDistance, ADepthStepAndTheMapsEdgeAreTheBorders) {
   EXPECT_FLOAT_EQ(d(120, 10), 10.0f);  // the top ring is nearest
 }
 
+/// A 160 x 120 pinhole map of fronto-parallel planes at `left_m` (columns 0-79) and `right_m`
+/// (columns 80-159) with Gaussian depth noise of `sigma_m` (seeded).
+constexpr int kNoisyWidth = 160, kNoisyHeight = 120;
+RangeMap noisy_planes(float left_m, float right_m, float sigma_m, unsigned seed) {
+  const Intrinsics k{kNoisyWidth, kNoisyHeight, 100.0, 100.0, 79.5, 59.5};
+  Image<float> depth(kNoisyWidth, kNoisyHeight, 0.0f);
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, sigma_m);
+  for (int y = 0; y < kNoisyHeight; ++y)
+    for (int x = 0; x < kNoisyWidth; ++x) depth(x, y) = (x < 80 ? left_m : right_m) + noise(rng);
+  RangeMap map;
+  range_map_from_depth(depth, k, map);
+  return map;
+}
+
 TEST(BorderDistance, AFlatScanWithoutHolesHasOnlyItsOuterBorder) {
   // A smooth surface's Laplacian noise must not become "the most valuable borders": the outer
   // ring is 3 % of the pixels, so the 0.95 percentile falls in the noise, and the floor of 1 % of
   // the depth (15 mm against a noise Laplacian of about 2 mm) rejects it.
-  const int w = 160, h = 120;
-  const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
-  Image<float> depth(w, h, 0.0f);
-  std::mt19937 rng(3);
-  std::normal_distribution<float> noise(0.0f, 0.0005f);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) depth(x, y) = 1.5f + noise(rng);
-  RangeMap map;
-  range_map_from_depth(depth, k, map);
+  const int w = kNoisyWidth, h = kNoisyHeight;
+  const RangeMap map = noisy_planes(1.5f, 1.5f, 0.0005f, 3);
   Image<float> d;
   const BorderStats stats = border_distance(map, 0.01f, d);
   EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2));
@@ -124,15 +132,8 @@ TEST(BorderDistance, RangeNoiseAboveTheDepthFloorMakesNoEdges) {
   // percentile and the 1 % depth floor (20 mm) at about 1 % of the pixels; the noise floor (24
   // medians of the Laplacian, about 0.15 m here) leaves only the outer ring and the two columns
   // beside the 0.3 m step as edges.
-  const int w = 160, h = 120;
-  const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
-  Image<float> depth(w, h, 0.0f);
-  std::mt19937 rng(5);
-  std::normal_distribution<float> noise(0.0f, 0.002f);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) depth(x, y) = (x < 80 ? 2.0f : 2.3f) + noise(rng);
-  RangeMap map;
-  range_map_from_depth(depth, k, map);
+  const int w = kNoisyWidth, h = kNoisyHeight;
+  const RangeMap map = noisy_planes(2.0f, 2.3f, 0.002f, 5);
   Image<float> d;
   const BorderStats stats = border_distance(map, 0.01f, d);
   EXPECT_GT(stats.threshold, 0.1f);
