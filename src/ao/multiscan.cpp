@@ -31,9 +31,9 @@ struct Sum {
   double w = 0.0;
 };
 
-/// Adds the N x N samples of scan j around pixel (px, py) to `sum`.
-void add_samples(const ScanAo& scan_j, const PairFrame& f, int px, int py, float rad_i,
-                 const MultiScanParams& params, Sum& sum) {
+/// Adds the N x N samples of scan j around pixel (px, py) to `sum`; `inv_rad_i` = 1 / rad(p_i).
+void add_samples(const ScanAo& scan_j, const MvaoSamples& samples, const PairFrame& f, int px,
+                 int py, float inv_rad_i, const MultiScanParams& params, Sum& sum) {
   const RangeMap& map = scan_j.map;
   const int half = params.neighbourhood / 2;
   const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
@@ -43,17 +43,14 @@ void add_samples(const ScanAo& scan_j, const PairFrame& f, int px, int py, float
       const int y = py + dy;
       if (wrap) x = (x + map.camera.width) % map.camera.width;
       if (x < 0 || y < 0 || x >= map.camera.width || y >= map.camera.height) continue;
-      if (!map.has_point(x, y)) continue;
-      const Eigen::Vector3f& q = map.points(x, y);
-      const Eigen::Vector3f& n = map.normals(x, y);
-      if (!((f.scanner_i - q).dot(n) > 0.0f)) continue;  // not visible from scanner i
-      float w = view_weight(q, n, params.d_min_m, params.d_max_m);
-      if (params.border_weight) {
-        const float alpha = rad_i / point_radius(map.camera, map.camera.depth(q));
-        w *= std::min(scan_j.border_px(x, y) / (params.t_p_px * alpha), 1.0f);
-      }
+      const MvaoSamples::Sample& s = samples(x, y);
+      if (!(s.weight > 0.0f)) continue;  // no point there, or a weight of 0
+      if (!((f.scanner_i - map.points(x, y)).dot(map.normals(x, y)) > 0.0f))
+        continue;  // not visible from scanner i
+      float w = s.weight;
+      if (params.border_weight) w *= std::min(s.border * inv_rad_i, 1.0f);
       if (!(w > 0.0f)) continue;
-      sum.ao_w += static_cast<double>(w) * scan_j.ssao(x, y);
+      sum.ao_w += static_cast<double>(w) * s.ssao;
       sum.w += w;
     }
 }
@@ -93,9 +90,11 @@ bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b,
   return grown.intersects(a);
 }
 
-bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
-                         const Eigen::Vector3f& scanner_i, int& px, int& py) {
-  if (!map_j.camera.pixel_of(q, px, py)) return false;
+namespace {
+
+/// corresponding_pixel() once q's pixel (px, py) is known.
+bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
+                            const Eigen::Vector3f& scanner_i, int& px, int& py) {
   if (!map_j.has_point(px, py)) {
     // A hole: the measured neighbour nearest to q stands for the point at q's pixel.
     const int w = map_j.camera.width, h = map_j.camera.height;
@@ -125,6 +124,38 @@ bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float 
   return (scanner_i - p_ij).dot(map_j.normals(px, py)) > 0.0f;
 }
 
+}  // namespace
+
+bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
+                         const Eigen::Vector3f& scanner_i, int& px, int& py) {
+  return map_j.camera.pixel_of(q, px, py) && corresponding_pixel_at(map_j, q, rad_i, scanner_i, px, py);
+}
+
+MvaoSamples::MvaoSamples(const ScanAo& scan_j, const MultiScanParams& params) {
+  make(scan_j, params);
+}
+
+void MvaoSamples::make(const ScanAo& scan_j, const MultiScanParams& params) {
+  check_scan(scan_j);
+  const RangeMap& map = scan_j.map;
+  width_ = map.camera.width;
+  height_ = map.camera.height;
+  samples_.resize(static_cast<std::size_t>(width_) * height_);
+  tbb::parallel_for(tbb::blocked_range<int>(0, height_), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < width_; ++x) {
+        Sample& s = samples_[static_cast<std::size_t>(y) * width_ + x];
+        s = {0.0f, 0.0f, 1.0f};
+        if (!map.has_point(x, y)) continue;
+        const Eigen::Vector3f& q = map.points(x, y);
+        s.weight = view_weight(q, map.normals(x, y), params.d_min_m, params.d_max_m);
+        s.border = scan_j.border_px(x, y) * point_radius(map.camera, map.camera.depth(q)) /
+                   params.t_p_px;
+        s.ssao = scan_j.ssao(x, y);
+      }
+  });
+}
+
 MvaoAccumulator::MvaoAccumulator(const ScanAo& scan_i, const MultiScanParams& params)
     : scan_i_(scan_i), params_(params) {
   check_neighbourhood(params.neighbourhood);
@@ -135,32 +166,69 @@ MvaoAccumulator::MvaoAccumulator(const ScanAo& scan_i, const MultiScanParams& pa
   other_scan_.assign(n, 0);
 }
 
-void MvaoAccumulator::add(const ScanAo& scan_j, bool same_scan) {
+void MvaoAccumulator::add(const ScanAo& scan_j, const MvaoSamples& samples_j, bool same_scan) {
   check_scan(scan_j);
   const RangeMap& map_i = scan_i_.map;
   const RangeMap& map_j = scan_j.map;
+  if (samples_j.width() != map_j.camera.width || samples_j.height() != map_j.camera.height)
+    throw usage_error(map_j.name + ": its samples were made for a map of another size");
   const Pose T_j_i = map_j.T_world_scanner.inverse() * map_i.T_world_scanner;
   PairFrame f;
   f.R = T_j_i.rotation().cast<float>();
   f.t = T_j_i.translation().cast<float>();
   f.scanner_i = f.t;
   const int width = map_i.camera.width;
+  const int half = params_.neighbourhood / 2;
   tbb::parallel_for(
       tbb::blocked_range<int>(0, map_i.camera.height), [&](const tbb::blocked_range<int>& rows) {
+        // A row goes in runs of points: first each point's pixel in scan j, with the rows of scan
+        // j it will read fetched ahead, then the samples, so that the projections of a run hide
+        // the memory latency of its random reads into scan j.
+        constexpr int kRun = 32;
+        struct Pending {
+          int x, px, py;
+          float rad_i;
+          Eigen::Vector3f q;
+        };
+        Pending run[kRun];
+        float qx[kRun], qy[kRun], qz[kRun], rad[kRun];
+        int xs[kRun], pxs[kRun], pys[kRun];
         for (int y = rows.begin(); y < rows.end(); ++y)
-          for (int x = 0; x < width; ++x) {
-            if (!map_i.has_point(x, y)) continue;
-            const Eigen::Vector3f& p = map_i.points(x, y);
-            const Eigen::Vector3f q = f.R * p + f.t;
-            const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
-            int px = 0, py = 0;
-            if (!corresponding_pixel(map_j, q, rad_i, f.scanner_i, px, py)) continue;
-            const std::size_t k = static_cast<std::size_t>(y) * width + x;
-            Sum sum{ao_w_[k], w_[k]};
-            add_samples(scan_j, f, px, py, rad_i, params_, sum);
-            if (!same_scan && sum.w > w_[k]) other_scan_[k] = 1;
-            ao_w_[k] = sum.ao_w;
-            w_[k] = sum.w;
+          for (int x0 = 0; x0 < width; x0 += kRun) {
+            int points = 0;
+            for (int x = x0; x < std::min(x0 + kRun, width); ++x) {
+              if (!map_i.has_point(x, y)) continue;
+              const Eigen::Vector3f& p = map_i.points(x, y);
+              const Eigen::Vector3f q = f.R * p + f.t;
+              qx[points] = q.x();
+              qy[points] = q.y();
+              qz[points] = q.z();
+              rad[points] = point_radius(map_i.camera, map_i.camera.depth(p));
+              xs[points++] = x;
+            }
+            map_j.camera.pixels_of(qx, qy, qz, points, pxs, pys);
+            int pending = 0;
+            for (int k = 0; k < points; ++k) {
+              if (pxs[k] < 0) continue;
+              Pending& r = run[pending++];
+              r = {xs[k], pxs[k], pys[k], rad[k], Eigen::Vector3f(qx[k], qy[k], qz[k])};
+              for (int sy = std::max(r.py - std::max(half, 1), 0);
+                   sy <= std::min(r.py + std::max(half, 1), map_j.camera.height - 1); ++sy) {
+                __builtin_prefetch(&map_j.points(r.px, sy));
+                __builtin_prefetch(&map_j.normals(r.px, sy));
+                __builtin_prefetch(&samples_j(r.px, sy));
+              }
+            }
+            for (int k = 0; k < pending; ++k) {
+              Pending& r = run[k];
+              if (!corresponding_pixel_at(map_j, r.q, r.rad_i, f.scanner_i, r.px, r.py)) continue;
+              const std::size_t i = static_cast<std::size_t>(y) * width + r.x;
+              Sum sum{ao_w_[i], w_[i]};
+              add_samples(scan_j, samples_j, f, r.px, r.py, 1.0f / r.rad_i, params_, sum);
+              if (!same_scan && sum.w > w_[i]) other_scan_[i] = 1;
+              ao_w_[i] = sum.ao_w;
+              w_[i] = sum.w;
+            }
           }
       });
 }
@@ -192,6 +260,9 @@ MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScan
     stats.points += scans[i].map.count_points();
   }
   mvao.resize(n);
+  std::vector<MvaoSamples> samples;
+  samples.reserve(n);
+  for (const ScanAo& s : scans) samples.emplace_back(s, params);
   for (int i = 0; i < n; ++i) {
     MvaoAccumulator accumulator(scans[i], params);
     for (int j = 0; j < n; ++j) {
@@ -200,7 +271,7 @@ MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScan
         continue;
       }
       if (j != i) ++stats.pairs_tested;
-      accumulator.add(scans[j], j == i);
+      accumulator.add(scans[j], samples[j], j == i);
     }
     const long long shared = accumulator.finish(mvao[i]);
     stats.points_shared += shared;

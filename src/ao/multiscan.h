@@ -62,6 +62,37 @@ bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b,
 bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
                          const Eigen::Vector3f& scanner_i, int& px, int& py);
 
+/// What the integration reads of each pixel of a candidate scan j besides its point and normal,
+/// worked out once per scan instead of once per sample (a pixel is a sample of every point of
+/// every scan i that lands near it): the view weight w_d w_n of Eq. 10-11 (view_weight(), 0 where
+/// the pixel has no point), d_b rad(p_j) / t_p, which makes Eq. 12's w_b = min(d_b / (t_p alpha),
+/// 1) = min(that / rad(p_i), 1) with alpha = rad(p_i) / rad(p_j), and the SSAO.
+class MvaoSamples {
+ public:
+  MvaoSamples() = default;
+  /// make(scan_j, params).
+  MvaoSamples(const ScanAo& scan_j, const MultiScanParams& params);
+  /// The samples of `scan_j` (the storage is reused). Throws usage_error for a scan whose images
+  /// do not match its map.
+  void make(const ScanAo& scan_j, const MultiScanParams& params);
+  struct Sample {
+    float weight;  ///< w_d w_n; 0: no point, or a sample that weighs nothing
+    float border;  ///< d_b rad(p_j) / t_p (metres)
+    float ssao;
+  };
+  const Sample& operator()(int x, int y) const {
+    return samples_[static_cast<std::size_t>(y) * width_ + x];
+  }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  /// Bytes held per pixel of scan j (for memory budgets).
+  static constexpr std::size_t kBytesPerPixel = sizeof(Sample);
+
+ private:
+  int width_ = 0, height_ = 0;
+  std::vector<Sample> samples_;
+};
+
 /// Eq. 6-9 for the points of one scan i, one candidate scan j at a time, so that a caller can hold
 /// only scan i and the scan j it adds (the out-of-core path): each point p_i is taken into scan
 /// j's frame (T_world_scanner_j^-1 T_world_scanner_i p_i), projected into its map, and the point
@@ -69,16 +100,18 @@ bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float 
 /// pixels around it in scan j's map (those with a point and a normal facing scanner i), each with
 /// its SSAO weighted by w = w_d w_n w_b: w_d w_n of Eq. 10-11 for the sample seen from its own
 /// scanner (view_weight()), w_b = min(d_b / (t_p alpha), 1) of Eq. 12 with alpha = rad(p_i) /
-/// rad(sample). Adding the candidates in the same order gives the same sums, bit for bit, whatever
-/// else is held in memory. Rows run in parallel; the result does not depend on the thread count.
+/// rad(sample) (both read from MvaoSamples). Adding the candidates in the same order gives the
+/// same sums, bit for bit, whatever else is held in memory. Rows run in parallel; the result does
+/// not depend on the thread count.
 class MvaoAccumulator {
  public:
   /// Starts scan i (which must outlive the accumulator). Throws usage_error on a bad
   /// neighbourhood or a scan whose images do not match its map.
   MvaoAccumulator(const ScanAo& scan_i, const MultiScanParams& params);
-  /// Adds candidate scan j (`same_scan`: j is scan i itself, whose samples do not make a point
-  /// shared). Throws usage_error for a scan whose images do not match its map.
-  void add(const ScanAo& scan_j, bool same_scan);
+  /// Adds candidate scan j with its samples (made with the same parameters; `same_scan`: j is
+  /// scan i itself, whose samples do not make a point shared). Throws usage_error for a scan
+  /// whose images do not match its map or samples of another size.
+  void add(const ScanAo& scan_j, const MvaoSamples& samples_j, bool same_scan);
   /// MVAO(p_i), the weighted mean of the samples, into `mvao` (scan i's map size; a point whose
   /// samples all weigh 0 keeps its own SSAO; pixels without a point get 1). Returns the points
   /// with a sample from another scan.

@@ -4,11 +4,32 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace aoscan {
 namespace {
 
 constexpr double kPi = M_PI;  // as pixels_per_metre_at_1m() in the header
+
+/// atan2(y, x) in float without branches (the compiler turns the selects into blends): the
+/// octant's angle by the arctangent polynomial of Cephes' atanf on [-tan(pi/8), tan(pi/8)]
+/// (a few float ulp), then the octant's offset. (0, 0) gives 0; the sign follows y's, -0 included.
+inline float atan2_poly(float y, float x) {
+  constexpr float kPiF = static_cast<float>(kPi);
+  const float ax = std::fabs(x), ay = std::fabs(y);
+  const float hi = std::max(ax, ay), lo = std::min(ax, ay);
+  const float a = lo / std::max(hi, std::numeric_limits<float>::min());  // [0, 1]
+  // Above tan(pi/8), atan(a) = pi/4 + atan((a - 1) / (a + 1)).
+  const bool upper = a > 0.41421356f;
+  const float reduced = (a - 1.0f) / (a + 1.0f);
+  const float r = upper ? reduced : a;
+  const float z = r * r;
+  const float octant = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z -
+                        3.33329491539e-1f) * z * r + r + (upper ? 0.25f * kPiF : 0.0f);
+  const float first = ay > ax ? 0.5f * kPiF - octant : octant;  // [0, pi/2]
+  const float half = x < 0.0f ? kPiF - first : first;           // [0, pi]
+  return std::copysign(half, y);
+}
 
 }  // namespace
 
@@ -78,6 +99,47 @@ bool ScanCamera::pixel_of(const Eigen::Vector3f& p, int& x, int& y) const {
     y = std::min(y, height - 1);
   }
   return x < width && y < height;
+}
+
+void ScanCamera::pixels_of(const float* xs, const float* ys, const float* zs, int n, int* px,
+                           int* py) const {
+  // Bitwise & between the tests, so that the loop has no branch: a point that fails a test
+  // computes garbage that the selects drop (src/CMakeLists.txt lets the compiler do so).
+  const float w = static_cast<float>(width), h = static_cast<float>(height);
+  if (projection == ScanProjection::kPinhole) {
+    const float fx = static_cast<float>(pinhole.fx), fy = static_cast<float>(pinhole.fy);
+    const float cx = static_cast<float>(pinhole.cx) + 0.5f, cy = static_cast<float>(pinhole.cy) + 0.5f;
+    for (int k = 0; k < n; ++k) {
+      const float x = xs[k], y = ys[k], z = zs[k];
+      const float u = fx * x / z + cx, v = fy * y / z + cy;
+      // Finite, in front and inside (NaN fails every comparison).
+      const bool in = (x - x == 0.0f) & (y - y == 0.0f) & (z > 0.0f) & (u >= 0.0f) & (v >= 0.0f) &
+                      (u < w) & (v < h);
+      px[k] = in ? static_cast<int>(in ? u : 0.0f) : -1;
+      py[k] = static_cast<int>(in ? v : 0.0f);
+    }
+    return;
+  }
+  const float u_scale = static_cast<float>(width / (2.0 * kPi));
+  const float v_scale = static_cast<float>(height / kPi);
+  const float pi = static_cast<float>(kPi);
+  for (int k = 0; k < n; ++k) {
+    const float x = xs[k], y = ys[k], z = zs[k];
+    // The polar angle is that of the point scaled to at most 1, whose squares neither overflow
+    // nor underflow.
+    const float scale = 1.0f / std::max(std::max(std::fabs(x), std::fabs(y)),
+                                        std::max(std::fabs(z), std::numeric_limits<float>::min()));
+    const float sx = x * scale, sy = y * scale;
+    const float horizontal = std::sqrt(sx * sx + sy * sy);
+    const float u = (atan2_poly(y, x) + pi) * u_scale;
+    const float v = atan2_poly(horizontal, z * scale) * v_scale;
+    const bool in = (x - x == 0.0f) & (y - y == 0.0f) & (z - z == 0.0f) &
+                    ((horizontal != 0.0f) | (z != 0.0f)) & (u >= 0.0f) & (v >= 0.0f) & (u <= w) &
+                    (v <= h);
+    // u = width (phi = pi) and v = height (theta = pi) land on the last column and row.
+    px[k] = in ? static_cast<int>(std::min(in ? u : 0.0f, w - 1.0f)) : -1;
+    py[k] = static_cast<int>(std::min(in ? v : 0.0f, h - 1.0f));
+  }
 }
 
 bool ScanCamera::valid() const {

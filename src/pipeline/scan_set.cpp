@@ -706,7 +706,9 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
     largest_pixels = std::max(largest_pixels, info.pixels());
   }
   const std::uint64_t accumulator_bytes_per_pixel = MvaoAccumulator::kBytesPerPixel;
-  const std::uint64_t finish_bytes = largest_pixels * sizeof(float);  // one MVAO image at a time
+  // The samples of the scan being added (their storage kept), and one MVAO image at a time.
+  const std::uint64_t finish_bytes =
+      largest_pixels * (sizeof(float) + MvaoSamples::kBytesPerPixel);
   plan.require(largest_pixels * accumulator_bytes_per_pixel + finish_bytes + largest + second,
                "integrating scan " + largest_name + " with another");
 
@@ -736,6 +738,7 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
   StageProgress progress(options.show_progress && ranks.rank() == 0, "MVAO", "scans",
                          static_cast<long long>(mine.size()));
   std::size_t next = 0;
+  MvaoSamples samples_j;  // of the scan being added, its storage reused
   while (next < mine.size()) {
     std::vector<int> batch;
     std::uint64_t used = finish_bytes + largest;  // and one more scan streaming through
@@ -762,9 +765,10 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
     for (int j : needed) {
       check_stop(options);
       const std::shared_ptr<const ScanAo> scan_j = cache.get(ids[j].key(), infos[j].loaded_bytes());
+      samples_j.make(*scan_j, params);
       for (std::size_t b = 0; b < batch.size(); ++b)
         if (std::binary_search(candidates[batch[b]].begin(), candidates[batch[b]].end(), j))
-          sums[b]->add(*scan_j, j == batch[b]);
+          sums[b]->add(*scan_j, samples_j, j == batch[b]);
     }
     for (std::size_t b = 0; b < batch.size(); ++b) {
       Image<float> mvao;

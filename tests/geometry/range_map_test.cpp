@@ -1,10 +1,11 @@
 // Tests for src/geometry/scan_camera.cpp and src/geometry/range_map.cpp: projections with exact
-// answers, the paper's equirectangular map size, rasterising clouds, and normals of planes (the
+// answers, the batched projection against the plain one, the paper's equirectangular map size, rasterising clouds, and normals of planes (the
 // windows of compute_range_map_normals(): pixels, a metric support, a least number of points).
 #include "geometry/scan_camera.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -68,6 +69,111 @@ TEST(ScanCamera, PinholeProjectsLikeItsIntrinsics) {
   EXPECT_FALSE(c.pixel_of({10.0f, 0.0f, 1.0f}, x, y));  // far outside the image
   EXPECT_FLOAT_EQ(c.depth(p), 2.0f);
   EXPECT_FLOAT_EQ(point_radius(c, 3.0f), 3.0f / 60.0f);
+}
+
+/// The map coordinates of `p` in double, as pixel_of() floors them (pinhole: shifted by half a
+/// pixel); false where the camera cannot see the point.
+bool exact_map_coordinates(const ScanCamera& c, const Eigen::Vector3f& p, double& u, double& v) {
+  const Eigen::Vector3d q = p.cast<double>();
+  if (!q.allFinite()) return false;
+  if (c.projection == ScanProjection::kPinhole) {
+    if (!(q.z() > 0.0)) return false;
+    u = c.pinhole.fx * q.x() / q.z() + c.pinhole.cx + 0.5;
+    v = c.pinhole.fy * q.y() / q.z() + c.pinhole.cy + 0.5;
+    return true;
+  }
+  if (q.norm() == 0.0) return false;
+  u = (std::atan2(q.y(), q.x()) + kPi) / (2.0 * kPi) * c.width;
+  v = std::atan2(std::hypot(q.x(), q.y()), q.z()) / kPi * c.height;
+  return true;
+}
+
+/// ScanCamera::pixels_of() against pixel_of(), its plain version, on `points`: the same answer
+/// for every point whose exact map coordinates lie farther than 1e-3 pixels from a pixel's edge;
+/// those nearer (fewer than 1 %) may land in the pixel beside.
+void expect_pixels_of_agrees(const ScanCamera& c, const std::vector<Eigen::Vector3f>& points) {
+  const int n = static_cast<int>(points.size());
+  std::vector<float> xs(n), ys(n), zs(n);
+  for (int k = 0; k < n; ++k) {
+    xs[k] = points[k].x();
+    ys[k] = points[k].y();
+    zs[k] = points[k].z();
+  }
+  std::vector<int> px(n, -7), py(n, -7);
+  c.pixels_of(xs.data(), ys.data(), zs.data(), n, px.data(), py.data());
+  auto near_edge = [](double t) { return std::abs(t - std::round(t)) < 1e-3; };
+  int near = 0, seen = 0;
+  for (int k = 0; k < n; ++k) {
+    int x = -1, y = -1;
+    const bool ok = c.pixel_of(points[k], x, y);
+    double u = 0.0, v = 0.0;
+    if (exact_map_coordinates(c, points[k], u, v) && (near_edge(u) || near_edge(v))) {
+      ++near;
+      if (ok && px[k] >= 0) {
+        const int dx = std::abs(px[k] - x);
+        EXPECT_LE(c.projection == ScanProjection::kPinhole ? dx : std::min(dx, c.width - dx), 1)
+            << "point " << points[k].transpose();
+        EXPECT_LE(std::abs(py[k] - y), 1) << "point " << points[k].transpose();
+      }
+      continue;
+    }
+    seen += ok;
+    ASSERT_EQ(px[k] >= 0, ok) << "point " << points[k].transpose();
+    if (!ok) continue;
+    ASSERT_EQ(px[k], x) << "point " << points[k].transpose();
+    ASSERT_EQ(py[k], y) << "point " << points[k].transpose();
+  }
+  EXPECT_LT(near, n / 100);
+  EXPECT_GT(seen, n / 4);
+}
+
+TEST(ScanCamera, BatchedEquirectangularProjectionAgreesWithPixelOf) {
+  // The size of the map of a 6 M-point cloud, where a float azimuth is coarsest.
+  const ScanCamera c = ScanCamera::make_equirectangular(2507);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  std::uniform_real_distribution<float> range(0.05f, 40.0f);
+  std::vector<Eigen::Vector3f> points;
+  for (int k = 0; k < 200000; ++k) {
+    const Eigen::Vector3f d(gauss(rng), gauss(rng), gauss(rng));
+    points.push_back(d.normalized() * range(rng));
+  }
+  // The axes, the poles, both sides of the azimuth's seam (-0 included), the scanner itself,
+  // points that are not finite, tiny and huge ones.
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::nanf("");
+  const std::vector<Eigen::Vector3f> special = {
+      {1, 0, 0},  {0, 1, 0},     {0, -1, 0},       {0, 0, 1},    {0, 0, -1},   {-1, 0.0f, 0},
+      {-1, -0.0f, 0},  {-1, 1e-30f, 0.5f}, {0, 0, 0},   {nan, 0, 1},  {inf, 0, 0},  {1, -inf, 0},
+      {1e-30f, 0, 1e-30f}, {3e30f, -2e30f, 1e30f}, {0, 0, 1e-30f}};
+  points.insert(points.end(), special.begin(), special.end());
+  expect_pixels_of_agrees(c, points);
+
+  const std::vector<Eigen::Vector3f> seam = {{-1, 0.0f, 0}, {-1, -0.0f, 0}, {0, 0, 1}, {0, 0, -1}};
+  std::vector<float> xs, ys, zs;
+  for (const Eigen::Vector3f& p : seam) {
+    xs.push_back(p.x());
+    ys.push_back(p.y());
+    zs.push_back(p.z());
+  }
+  std::vector<int> px(4), py(4);
+  c.pixels_of(xs.data(), ys.data(), zs.data(), 4, px.data(), py.data());
+  EXPECT_EQ(px[0], c.width - 1);  // azimuth pi: the last column
+  EXPECT_EQ(px[1], 0);            // azimuth -pi: the first
+  EXPECT_EQ(py[2], 0);            // the zenith: the top row
+  EXPECT_EQ(py[3], c.height - 1);  // the nadir: the bottom row
+}
+
+TEST(ScanCamera, BatchedPinholeProjectionAgreesWithPixelOf) {
+  const ScanCamera c = ScanCamera::make_pinhole(Intrinsics{640, 480, 525.0, 526.0, 319.5, 239.5});
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<float> lateral(-3.0f, 3.0f), depth(-1.0f, 6.0f);
+  std::vector<Eigen::Vector3f> points;
+  for (int k = 0; k < 200000; ++k) points.emplace_back(lateral(rng), lateral(rng), depth(rng));
+  const float nan = std::nanf("");
+  const std::vector<Eigen::Vector3f> special = {
+      {0, 0, 0}, {0, 0, 1}, {1, 1, 0}, {nan, 0, 1}, {0, 0, -1}, {1e30f, 0, 1}, {0, 0, 1e-30f}};
+  points.insert(points.end(), special.begin(), special.end());
+  expect_pixels_of_agrees(c, points);
 }
 
 TEST(ScanCamera, TheMapOfAPointCloudIsTwoHByH) {
