@@ -115,14 +115,13 @@ void jump_flood_distance(const Image<std::uint8_t>& seeds, bool wrap_x, Image<fl
 
 BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<float>& distance_px) {
   const int w = map.points.width(), h = map.points.height();
-  const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  const bool wrap = map.camera.wraps();
   Image<float> depth(w, h, 0.0f);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       depth(x, y) = map.has_point(x, y) ? map.camera.depth(map.points(x, y)) : 0.0f;
   auto at = [&](int x, int y) {
-    if (wrap) x = ((x % w) + w) % w;
-    return x < 0 || y < 0 || x >= w || y >= h ? 0.0f : depth(x, y);
+    return onto_map(x, y, w, h, wrap) ? depth(x, y) : 0.0f;
   };
   Image<float> laplacian(w, h, 0.0f);
   std::vector<float> values;

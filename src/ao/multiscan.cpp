@@ -36,13 +36,12 @@ void add_samples(const ScanAo& scan_j, const MvaoSamples& samples, const PairFra
                  int py, float inv_rad_i, const MultiScanParams& params, Sum& sum) {
   const RangeMap& map = scan_j.map;
   const int half = params.neighbourhood / 2;
-  const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  const bool wrap = map.camera.wraps();
   for (int dy = -half; dy <= half; ++dy)
     for (int dx = -half; dx <= half; ++dx) {
       int x = px + dx;
       const int y = py + dy;
-      if (wrap) x = (x + map.camera.width) % map.camera.width;
-      if (x < 0 || y < 0 || x >= map.camera.width || y >= map.camera.height) continue;
+      if (!onto_map(x, y, map.camera.width, map.camera.height, wrap)) continue;
       const MvaoSamples::Sample& s = samples(x, y);
       if (!(s.weight > 0.0f)) continue;  // no point there, or a weight of 0
       if (!((f.scanner_i - map.points(x, y)).dot(map.normals(x, y)) > 0.0f))
@@ -98,15 +97,14 @@ bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, flo
   if (!map_j.has_point(px, py)) {
     // A hole: the measured neighbour nearest to q stands for the point at q's pixel.
     const int w = map_j.camera.width, h = map_j.camera.height;
-    const bool wrap = map_j.camera.projection == ScanProjection::kEquirectangular;
+    const bool wrap = map_j.camera.wraps();
     float best = std::numeric_limits<float>::infinity();
     int bx = -1, by = -1;
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         int x = px + dx;
         const int y = py + dy;
-        if (wrap) x = (x + w) % w;
-        if (x < 0 || y < 0 || x >= w || y >= h || !map_j.has_point(x, y)) continue;
+        if (!onto_map(x, y, w, h, wrap) || !map_j.has_point(x, y)) continue;
         const float d2 = (map_j.points(x, y) - q).squaredNorm();
         if (d2 < best) {
           best = d2;

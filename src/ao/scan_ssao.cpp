@@ -20,15 +20,6 @@ using detail::kMaxRadiusPx;
 using detail::pattern_class;
 using detail::smoothstep01;
 
-/// Column x of a map that wraps around in x (equirectangular): one addition or subtraction for
-/// the columns just off either edge, the usual case.
-inline int wrap_column(int x, int width) {
-  if (x < 0) x += width;
-  if (x >= width) x -= width;
-  if (x < 0 || x >= width) x = ((x % width) + width) % width;  // farther than a width off
-  return x;
-}
-
 /// Bits of a pixel's kind: it has a point; it has a point and a normal (it gets an SSAO).
 constexpr std::uint8_t kPoint = 1;
 constexpr std::uint8_t kNormal = 2;
@@ -46,11 +37,9 @@ bool sample_pixel(const Image<std::uint8_t>& kind, int x, int y, float du, float
   const long iu = std::lround(du), iv = std::lround(dv);
   int x0 = x + static_cast<int>(iu);
   const int y0 = y + static_cast<int>(iv);
-  if (wrap) x0 = wrap_column(x0, w);
-  if (x0 < 0 || y0 < 0 || x0 >= w || y0 >= h) return false;
+  if (!onto_map(x0, y0, w, h, wrap)) return false;
   auto take = [&](int cx, int cy) {
-    if (wrap) cx = wrap_column(cx, w);
-    if (cx < 0 || cy < 0 || cx >= w || cy >= h || (kind(cx, cy) & kPoint) == 0) return false;
+    if (!onto_map(cx, cy, w, h, wrap) || (kind(cx, cy) & kPoint) == 0) return false;
     sx = cx;
     sy = cy;
     return true;
@@ -85,7 +74,7 @@ float pixel_ao(const RangeMap& map, const Image<std::uint8_t>& kind, const AoCon
       estimator == AoEstimator::kPaper ? 0.0f : static_cast<float>(config.bias) * depth;
   const float r2eps = kAlchemyEpsilon * radius_m * radius_m;
   const int cls = pattern_class(x, y);
-  const bool wrap = camera.projection == ScanProjection::kEquirectangular;
+  const bool wrap = camera.wraps();
   float sum = 0.0f;
   int counted = 0;
   for (int k = 0; k < pattern.samples; ++k) {
@@ -140,7 +129,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   });
   // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
   static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};
-  const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  const bool wrap = map.camera.wraps();
   ao.resize(w, h, 1.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
@@ -154,8 +143,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
           for (int dx = -2; dx <= 2; ++dx) {
             int sx = x + dx;
             const int sy = y + dy;
-            if (wrap) sx = wrap_column(sx, w);
-            if (sx < 0 || sy < 0 || sx >= w || sy >= h || (kind(sx, sy) & kNormal) == 0) continue;
+            if (!onto_map(sx, sy, w, h, wrap) || (kind(sx, sy) & kNormal) == 0) continue;
             const float k = kTaps[dx + 2] * kTaps[dy + 2];
             sum += k * raw(sx, sy);
             weights += k;

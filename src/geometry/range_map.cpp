@@ -99,7 +99,7 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
 void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px,
                                float support_m, int min_points) {
   const int w = map.points.width(), h = map.points.height();
-  const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+  const bool wrap = map.camera.wraps();
   const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
   // Each pixel reads only points and writes only its own normal: rows run in parallel.
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -125,8 +125,7 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_p
         const auto add = [&](int dx, int dy) {
           int sx = x + dx;
           const int sy = y + dy;
-          if (wrap) sx = ((sx % w) + w) % w;
-          if (sx < 0 || sy < 0 || sx >= w || sy >= h || !map.has_point(sx, sy)) return;
+          if (!onto_map(sx, sy, w, h, wrap) || !map.has_point(sx, sy)) return;
           const Eigen::Vector3f& q = map.points(sx, sy);
           if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) return;
           const Eigen::Vector3d d = (q - p).cast<double>();

@@ -24,6 +24,24 @@ enum class ScanProjection {
   kEquirectangular,
 };
 
+/// Column x of a map `width` pixels wide that wraps around in x (an equirectangular map, whose
+/// columns are azimuths): one addition or subtraction for the columns just off either edge, the
+/// usual case.
+inline int wrap_column(int x, int width) {
+  if (x < 0) x += width;
+  if (x >= width) x -= width;
+  if (x < 0 || x >= width) x = ((x % width) + width) % width;  // farther than a width off
+  return x;
+}
+
+/// Moves pixel (x, y) of a map of width x height pixels, which may lie off it, onto it: across the
+/// seam when the map wraps around in x (`wrap`, ScanCamera::wraps()). False where (x, y) is off
+/// the map all the same (above or below it, or beside a map that does not wrap).
+inline bool onto_map(int& x, int y, int width, int height, bool wrap) {
+  if (wrap) x = wrap_column(x, width);
+  return x >= 0 && y >= 0 && x < width && y < height;
+}
+
 /// One scan's camera: its projection and map size (pixels).
 struct ScanCamera {
   ScanProjection projection = ScanProjection::kPinhole;
@@ -75,6 +93,8 @@ struct ScanCamera {
     if (projection == ScanProjection::kPinhole) return static_cast<float>(pinhole.fx);
     return static_cast<float>(width / (2.0 * M_PI));
   }
+  /// Whether the map wraps around in x (equirectangular: its columns are azimuths).
+  bool wraps() const { return projection == ScanProjection::kEquirectangular; }
   /// True when the model is usable (positive size; a pinhole camera with valid intrinsics of the
   /// same size).
   bool valid() const;

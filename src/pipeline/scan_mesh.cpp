@@ -158,7 +158,7 @@ TriangleMesh mesh_scans(int count, const std::function<std::shared_ptr<const Sca
     const RangeMap& map = s->map;
     const Eigen::Matrix3f R = map.T_world_scanner.rotation().transpose().cast<float>();
     const Eigen::Vector3f t = map.T_world_scanner.translation().cast<float>();
-    const bool wrap = map.camera.projection == ScanProjection::kEquirectangular;
+    const bool wrap = map.camera.wraps();
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
           for (std::size_t v = r.begin(); v < r.end(); ++v) {
@@ -171,8 +171,7 @@ TriangleMesh mesh_scans(int count, const std::function<std::shared_ptr<const Sca
               for (int dx = -1; dx <= 1; ++dx) {
                 int x = px + dx;
                 const int y = py + dy;
-                if (wrap) x = (x + map.camera.width) % map.camera.width;
-                if (x < 0 || y < 0 || x >= map.camera.width || y >= map.camera.height ||
+                if (!onto_map(x, y, map.camera.width, map.camera.height, wrap) ||
                     !map.has_point(x, y))
                   continue;
                 const Eigen::Vector3f& q = map.points(x, y);
