@@ -120,9 +120,7 @@ BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<flo
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       depth(x, y) = map.has_point(x, y) ? map.camera.depth(map.points(x, y)) : 0.0f;
-  auto at = [&](int x, int y) {
-    return onto_map(x, y, w, h, wrap) ? depth(x, y) : 0.0f;
-  };
+  auto at = [&](int x, int y) { return onto_map(x, y, w, h, wrap) ? depth(x, y) : 0.0f; };
   Image<float> laplacian(w, h, 0.0f);
   std::vector<float> values;
   for (int y = 0; y < h; ++y)

@@ -126,7 +126,8 @@ bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, flo
 
 bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
                          const Eigen::Vector3f& scanner_i, int& px, int& py) {
-  return map_j.camera.pixel_of(q, px, py) && corresponding_pixel_at(map_j, q, rad_i, scanner_i, px, py);
+  return map_j.camera.pixel_of(q, px, py) &&
+         corresponding_pixel_at(map_j, q, rad_i, scanner_i, px, py);
 }
 
 MvaoSamples::MvaoSamples(const ScanAo& scan_j, const MultiScanParams& params) {
@@ -147,8 +148,8 @@ void MvaoSamples::make(const ScanAo& scan_j, const MultiScanParams& params) {
         if (!map.has_point(x, y)) continue;
         const Eigen::Vector3f& q = map.points(x, y);
         s.weight = view_weight(q, map.normals(x, y), params.d_min_m, params.d_max_m);
-        s.border = scan_j.border_px(x, y) * point_radius(map.camera, map.camera.depth(q)) /
-                   params.t_p_px;
+        s.border =
+            scan_j.border_px(x, y) * point_radius(map.camera, map.camera.depth(q)) / params.t_p_px;
         s.ssao = scan_j.ssao(x, y);
       }
   });
@@ -177,58 +178,54 @@ void MvaoAccumulator::add(const ScanAo& scan_j, const MvaoSamples& samples_j, bo
   f.scanner_i = f.t;
   const int width = map_i.camera.width;
   const int half = params_.neighbourhood / 2;
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, map_i.camera.height), [&](const tbb::blocked_range<int>& rows) {
-        // A row goes in runs of points: first each point's pixel in scan j, with the rows of scan
-        // j it will read fetched ahead, then the samples, so that the projections of a run hide
-        // the memory latency of its random reads into scan j.
-        constexpr int kRun = 32;
-        struct Pending {
-          int x, px, py;
-          float rad_i;
-          Eigen::Vector3f q;
-        };
-        Pending run[kRun];
-        float qx[kRun], qy[kRun], qz[kRun], rad[kRun];
-        int xs[kRun], pxs[kRun], pys[kRun];
-        for (int y = rows.begin(); y < rows.end(); ++y)
-          for (int x0 = 0; x0 < width; x0 += kRun) {
-            int points = 0;
-            for (int x = x0; x < std::min(x0 + kRun, width); ++x) {
-              if (!map_i.has_point(x, y)) continue;
-              const Eigen::Vector3f& p = map_i.points(x, y);
-              const Eigen::Vector3f q = f.R * p + f.t;
-              qx[points] = q.x();
-              qy[points] = q.y();
-              qz[points] = q.z();
-              rad[points] = point_radius(map_i.camera, map_i.camera.depth(p));
-              xs[points++] = x;
-            }
-            map_j.camera.pixels_of(qx, qy, qz, points, pxs, pys);
-            int pending = 0;
-            for (int k = 0; k < points; ++k) {
-              if (pxs[k] < 0) continue;
-              Pending& r = run[pending++];
-              r = {xs[k], pxs[k], pys[k], rad[k], Eigen::Vector3f(qx[k], qy[k], qz[k])};
-              for (int sy = std::max(r.py - std::max(half, 1), 0);
-                   sy <= std::min(r.py + std::max(half, 1), map_j.camera.height - 1); ++sy) {
-                __builtin_prefetch(&map_j.points(r.px, sy));
-                __builtin_prefetch(&map_j.normals(r.px, sy));
-                __builtin_prefetch(&samples_j(r.px, sy));
-              }
-            }
-            for (int k = 0; k < pending; ++k) {
-              Pending& r = run[k];
-              if (!corresponding_pixel_at(map_j, r.q, r.rad_i, f.scanner_i, r.px, r.py)) continue;
-              const std::size_t i = static_cast<std::size_t>(y) * width + r.x;
-              Sum sum{ao_w_[i], w_[i]};
-              add_samples(scan_j, samples_j, f, r.px, r.py, 1.0f / r.rad_i, params_, sum);
-              if (!same_scan && sum.w > w_[i]) other_scan_[i] = 1;
-              ao_w_[i] = sum.ao_w;
-              w_[i] = sum.w;
-            }
-          }
-      });
+  tbb::parallel_for(tbb::blocked_range<int>(0, map_i.camera.height),
+                    [&](const tbb::blocked_range<int>& rows) {
+                      // A row goes in runs of points: first the points' pixels in scan j, projected
+                      // together (ScanCamera::pixels_of), with the rows of scan j their samples
+                      // will read fetched ahead, then the correspondences and samples, so that a
+                      // run's random reads into scan j overlap.
+                      constexpr int kRun = 32;
+                      float qx[kRun], qy[kRun], qz[kRun], rad[kRun];
+                      int xs[kRun], pxs[kRun], pys[kRun];
+                      const int reach = std::max(half, 1);  // rows of scan j read around a pixel
+                      for (int y = rows.begin(); y < rows.end(); ++y)
+                        for (int x0 = 0; x0 < width; x0 += kRun) {
+                          int points = 0;
+                          for (int x = x0; x < std::min(x0 + kRun, width); ++x) {
+                            if (!map_i.has_point(x, y)) continue;
+                            const Eigen::Vector3f& p = map_i.points(x, y);
+                            const Eigen::Vector3f q = f.R * p + f.t;
+                            qx[points] = q.x();
+                            qy[points] = q.y();
+                            qz[points] = q.z();
+                            rad[points] = point_radius(map_i.camera, map_i.camera.depth(p));
+                            xs[points++] = x;
+                          }
+                          map_j.camera.pixels_of(qx, qy, qz, points, pxs, pys);
+                          for (int k = 0; k < points; ++k) {
+                            if (pxs[k] < 0) continue;
+                            for (int sy = std::max(pys[k] - reach, 0);
+                                 sy <= std::min(pys[k] + reach, map_j.camera.height - 1); ++sy) {
+                              __builtin_prefetch(&map_j.points(pxs[k], sy));
+                              __builtin_prefetch(&map_j.normals(pxs[k], sy));
+                              __builtin_prefetch(&samples_j(pxs[k], sy));
+                            }
+                          }
+                          for (int k = 0; k < points; ++k) {
+                            int px = pxs[k], py = pys[k];
+                            if (px < 0) continue;
+                            const Eigen::Vector3f q(qx[k], qy[k], qz[k]);
+                            if (!corresponding_pixel_at(map_j, q, rad[k], f.scanner_i, px, py))
+                              continue;
+                            const std::size_t i = static_cast<std::size_t>(y) * width + xs[k];
+                            Sum sum{ao_w_[i], w_[i]};
+                            add_samples(scan_j, samples_j, f, px, py, 1.0f / rad[k], params_, sum);
+                            if (!same_scan && sum.w > w_[i]) other_scan_[i] = 1;
+                            ao_w_[i] = sum.ao_w;
+                            w_[i] = sum.w;
+                          }
+                        }
+                    });
 }
 
 long long MvaoAccumulator::finish(Image<float>& mvao) const {

@@ -25,7 +25,9 @@ inline float atan2_poly(float y, float x) {
   const float r = upper ? reduced : a;
   const float z = r * r;
   const float octant = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z -
-                        3.33329491539e-1f) * z * r + r + (upper ? 0.25f * kPiF : 0.0f);
+                        3.33329491539e-1f) *
+                           z * r +
+                       r + (upper ? 0.25f * kPiF : 0.0f);
   const float first = ay > ax ? 0.5f * kPiF - octant : octant;  // [0, pi/2]
   const float half = x < 0.0f ? kPiF - first : first;           // [0, pi]
   return std::copysign(half, y);
@@ -108,7 +110,8 @@ void ScanCamera::pixels_of(const float* xs, const float* ys, const float* zs, in
   const float w = static_cast<float>(width), h = static_cast<float>(height);
   if (projection == ScanProjection::kPinhole) {
     const float fx = static_cast<float>(pinhole.fx), fy = static_cast<float>(pinhole.fy);
-    const float cx = static_cast<float>(pinhole.cx) + 0.5f, cy = static_cast<float>(pinhole.cy) + 0.5f;
+    const float cx = static_cast<float>(pinhole.cx) + 0.5f,
+                cy = static_cast<float>(pinhole.cy) + 0.5f;
     for (int k = 0; k < n; ++k) {
       const float x = xs[k], y = ys[k], z = zs[k];
       const float u = fx * x / z + cx, v = fy * y / z + cy;

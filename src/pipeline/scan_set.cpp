@@ -707,8 +707,7 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
   }
   const std::uint64_t accumulator_bytes_per_pixel = MvaoAccumulator::kBytesPerPixel;
   // The samples of the scan being added (their storage kept), and one MVAO image at a time.
-  const std::uint64_t finish_bytes =
-      largest_pixels * (sizeof(float) + MvaoSamples::kBytesPerPixel);
+  const std::uint64_t finish_bytes = largest_pixels * (sizeof(float) + MvaoSamples::kBytesPerPixel);
   plan.require(largest_pixels * accumulator_bytes_per_pixel + finish_bytes + largest + second,
                "integrating scan " + largest_name + " with another");
 

@@ -1,6 +1,7 @@
 // Tests for src/geometry/scan_camera.cpp and src/geometry/range_map.cpp: projections with exact
-// answers, the batched projection against the plain one, the paper's equirectangular map size, rasterising clouds, and normals of planes (the
-// windows of compute_range_map_normals(): pixels, a metric support, a least number of points).
+// answers, the batched projection against the plain one, the paper's equirectangular map size,
+// rasterising clouds, and normals of planes (the windows of compute_range_map_normals(): pixels, a
+// metric support, a least number of points).
 #include "geometry/scan_camera.h"
 
 #include <algorithm>
@@ -141,10 +142,14 @@ TEST(ScanCamera, BatchedEquirectangularProjectionAgreesWithPixelOf) {
   // The axes, the poles, both sides of the azimuth's seam (-0 included), the scanner itself,
   // points that are not finite, tiny and huge ones.
   const float inf = std::numeric_limits<float>::infinity(), nan = std::nanf("");
-  const std::vector<Eigen::Vector3f> special = {
-      {1, 0, 0},  {0, 1, 0},     {0, -1, 0},       {0, 0, 1},    {0, 0, -1},   {-1, 0.0f, 0},
-      {-1, -0.0f, 0},  {-1, 1e-30f, 0.5f}, {0, 0, 0},   {nan, 0, 1},  {inf, 0, 0},  {1, -inf, 0},
-      {1e-30f, 0, 1e-30f}, {3e30f, -2e30f, 1e30f}, {0, 0, 1e-30f}};
+  const std::vector<Eigen::Vector3f> special = {{1, 0, 0},           {0, 1, 0},
+                                                {0, -1, 0},          {0, 0, 1},
+                                                {0, 0, -1},          {-1, 0.0f, 0},
+                                                {-1, -0.0f, 0},      {-1, 1e-30f, 0.5f},
+                                                {0, 0, 0},           {nan, 0, 1},
+                                                {inf, 0, 0},         {1, -inf, 0},
+                                                {1e-30f, 0, 1e-30f}, {3e30f, -2e30f, 1e30f},
+                                                {0, 0, 1e-30f}};
   points.insert(points.end(), special.begin(), special.end());
   expect_pixels_of_agrees(c, points);
 
@@ -157,9 +162,9 @@ TEST(ScanCamera, BatchedEquirectangularProjectionAgreesWithPixelOf) {
   }
   std::vector<int> px(4), py(4);
   c.pixels_of(xs.data(), ys.data(), zs.data(), 4, px.data(), py.data());
-  EXPECT_EQ(px[0], c.width - 1);  // azimuth pi: the last column
-  EXPECT_EQ(px[1], 0);            // azimuth -pi: the first
-  EXPECT_EQ(py[2], 0);            // the zenith: the top row
+  EXPECT_EQ(px[0], c.width - 1);   // azimuth pi: the last column
+  EXPECT_EQ(px[1], 0);             // azimuth -pi: the first
+  EXPECT_EQ(py[2], 0);             // the zenith: the top row
   EXPECT_EQ(py[3], c.height - 1);  // the nadir: the bottom row
 }
 
