@@ -309,11 +309,11 @@ std::shared_ptr<const ScanAo> ScanCache::get(std::uint64_t key, std::size_t byte
       entries_.splice(entries_.begin(), entries_, it);
       return it->scan;
     }
-  trim(budget_ > bytes ? budget_ - bytes : 0);
-  auto scan = std::make_shared<ScanAo>();
+  std::shared_ptr<ScanAo> scan = trim(budget_ > bytes ? budget_ - bytes : 0, bytes);
+  if (!scan) scan = std::make_shared<ScanAo>();
   load_(key, *scan);
   ++loads_;
-  entries_.push_front(Entry{key, bytes, scan});
+  entries_.push_front(Entry{key, bytes, scan, true});
   held_ += bytes;
   return scan;
 }
@@ -322,17 +322,22 @@ void ScanCache::put(std::uint64_t key, std::shared_ptr<const ScanAo> scan, std::
   if (bytes > budget_) return;
   trim(budget_ - bytes);
   if (held_ + bytes > budget_) return;
-  entries_.push_front(Entry{key, bytes, std::move(scan)});
+  // Kept as it came: never loaded into (`loaded` false), so it stays const.
+  entries_.push_front(Entry{key, bytes, std::const_pointer_cast<ScanAo>(std::move(scan)), false});
   held_ += bytes;
 }
 
-void ScanCache::trim(std::size_t bytes) {
+std::shared_ptr<ScanAo> ScanCache::trim(std::size_t bytes, std::size_t reuse_bytes) {
+  std::shared_ptr<ScanAo> reusable;
   for (auto it = entries_.end(); it != entries_.begin() && held_ > bytes;) {
     --it;
     if (it->scan.use_count() > 1) continue;
     held_ -= it->bytes;
+    if (!reusable && it->loaded && reuse_bytes > 0 && it->bytes == reuse_bytes)
+      reusable = std::move(it->scan);
     it = entries_.erase(it);
   }
+  return reusable;
 }
 
 }  // namespace aoscan

@@ -74,19 +74,23 @@ std::optional<long long> mvao_file_shared(const std::string& path, long long poi
 /// Loaded scans, least recently used first out, within a byte budget.
 class ScanCache {
  public:
-  /// Scans are known by a key of the caller's choosing.
+  /// Scans are known by a key of the caller's choosing. The loader sets all of `scan`, which may
+  /// hold a dropped scan of the same size (get()).
   using Loader = std::function<void(std::uint64_t key, ScanAo& scan)>;
   ScanCache(std::size_t budget_bytes, Loader load) : budget_(budget_bytes), load_(std::move(load)) {}
 
   /// Scan `key`, loaded (taking `bytes`) if it is not held. To make room the least recently
   /// used scans that nobody else holds are dropped; a scan still held elsewhere stays (the caller
-  /// plans its budget so that what it holds at once fits).
+  /// plans its budget so that what it holds at once fits). A dropped scan that this cache loaded
+  /// and that takes as many bytes is loaded into (its images' storage reused: freshly mapped
+  /// memory costs the kernel a page clearing per page, which a run reading scans back hundreds
+  /// of times would pay each time).
   std::shared_ptr<const ScanAo> get(std::uint64_t key, std::size_t bytes);
   /// Keeps a scan computed elsewhere (as most recently used) if it fits the budget after dropping
   /// what can be dropped; otherwise drops it.
   void put(std::uint64_t key, std::shared_ptr<const ScanAo> scan, std::size_t bytes);
   /// Drops least recently used scans nobody else holds until at most `bytes` are held.
-  void trim(std::size_t bytes);
+  void trim(std::size_t bytes) { trim(bytes, 0); }
   /// A new budget (what is held beyond it is dropped as far as it can be).
   void set_budget(std::size_t bytes) {
     budget_ = bytes;
@@ -102,8 +106,12 @@ class ScanCache {
   struct Entry {
     std::uint64_t key;
     std::size_t bytes;
-    std::shared_ptr<const ScanAo> scan;
+    std::shared_ptr<ScanAo> scan;  ///< const but for a scan this cache loaded (`loaded`)
+    bool loaded;
   };
+  /// trim(), giving back one dropped scan that this cache loaded and that takes `reuse_bytes`
+  /// (none when 0).
+  std::shared_ptr<ScanAo> trim(std::size_t bytes, std::size_t reuse_bytes);
   std::size_t budget_;
   Loader load_;
   std::list<Entry> entries_;  ///< most recently used first

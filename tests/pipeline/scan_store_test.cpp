@@ -1,5 +1,6 @@
 // The scratch files of `aoscan scans` and the budgeted scan cache: exact round trips, damaged
-// files named, least recently used scans dropped first and scans in use never.
+// files named, least recently used scans dropped first and scans in use never, a dropped scan
+// read into by the next of its size.
 #include "pipeline/scan_store.h"
 
 #include <filesystem>
@@ -164,6 +165,65 @@ TEST(ScanCache, DropsTheLeastRecentlyUsedScansThatNobodyHolds) {
   made.reset();
   cache.set_budget(100);
   EXPECT_EQ(cache.held_bytes(), 0u);
+}
+
+TEST(ScanCache, AScanOfTheSameSizeIsReadIntoTheOneItDropsAndKeepsNothingOfIt) {
+  ScratchDir dir;
+  // Two scans of one map size with points at different pixels: the second must come back with
+  // none of the first's points, normals, SSAO or border distances where it has no point.
+  const ScanAo a = make_scan("a");
+  ScanAo b = make_scan("b");
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x)
+      if ((x + y) % 2 == 0) {
+        b.map.points(x, y) = Eigen::Vector3f::Zero();
+        b.map.normals(x, y) = Eigen::Vector3f::Zero();
+        b.ssao(x, y) = 1.0f;
+        b.border_px(x, y) = 0.0f;
+      }
+  b.map.T_world_scanner = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.0, 1.0, 0.0));
+  write_scan_file(dir.file("a.bin"), describe_scan(a, "a.ply", 0), a);
+  write_scan_file(dir.file("b.bin"), describe_scan(b, "b.ply", 0), b);
+  const std::size_t bytes = describe_scan(a, "a.ply", 0).loaded_bytes();
+  // The loader notes what it is given to read into: a new scan (no name) or a dropped one.
+  std::vector<std::string> given;
+  const ScanCache::Loader load = [&dir, &given](std::uint64_t key, ScanAo& scan) {
+    given.push_back(scan.map.name);
+    read_scan_file(dir.file(key == 0 ? "a.bin" : "b.bin"), scan);
+  };
+  ScanCache cache(bytes, load);
+  cache.get(0, bytes);
+  const std::shared_ptr<const ScanAo> back = cache.get(1, bytes);  // drops a, reads b into it
+  EXPECT_EQ(given, (std::vector<std::string>{"", "a"}));
+  EXPECT_EQ(cache.loads(), 2);
+  ScanAo fresh;
+  read_scan_file(dir.file("b.bin"), fresh);
+  EXPECT_EQ(back->map.name, "b");
+  EXPECT_EQ(back->map.T_world_scanner.matrix(), fresh.map.T_world_scanner.matrix());
+  expect_same(back->map.points, fresh.map.points);
+  expect_same(back->map.normals, fresh.map.normals);
+  expect_same(back->ssao, fresh.ssao);
+  expect_same(back->border_px, fresh.border_px);
+  expect_same(back->map.points, b.map.points);
+
+  // A scan in use is never read into, nor one kept with put() (it is const: it is freed when
+  // dropped).
+  given.clear();
+  ScanCache roomy(2 * bytes, load);
+  bool put_freed = false;
+  roomy.put(5,
+            std::shared_ptr<const ScanAo>(new ScanAo(a),
+                                          [&put_freed](const ScanAo* p) {
+                                            put_freed = true;
+                                            delete p;
+                                          }),
+            bytes);
+  const std::shared_ptr<const ScanAo> one = roomy.get(0, bytes);
+  const std::shared_ptr<const ScanAo> two = roomy.get(1, bytes);  // 0 is held: 5 goes
+  EXPECT_TRUE(put_freed);
+  EXPECT_EQ(given, (std::vector<std::string>{"", ""}));
+  EXPECT_EQ(one->map.name, "a");
+  EXPECT_EQ(two->map.name, "b");
 }
 
 }  // namespace
