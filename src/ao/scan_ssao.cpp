@@ -18,6 +18,7 @@ namespace {
 using detail::kAlchemyEpsilon;
 using detail::kMaxRadiusPx;
 using detail::pattern_class;
+using detail::round_half_away;
 using detail::smoothstep01;
 
 /// Bits of a pixel's kind: it has a point; it has a point and a normal (it gets an SSAO).
@@ -34,7 +35,7 @@ constexpr std::uint8_t kNormal = 2;
 bool sample_pixel(const Image<std::uint8_t>& kind, int x, int y, float du, float dv, bool wrap,
                   int& sx, int& sy) {
   const int w = kind.width(), h = kind.height();
-  const long iu = std::lround(du), iv = std::lround(dv);
+  const long iu = round_half_away(du), iv = round_half_away(dv);
   int x0 = x + static_cast<int>(iu);
   const int y0 = y + static_cast<int>(iv);
   if (!onto_map(x0, y0, w, h, wrap)) return false;

@@ -28,6 +28,14 @@ inline float smoothstep01(float d, float t_max) {
   return u * u * (3.0f - 2.0f * u);
 }
 
+/// std::lround(v) for a finite float, without the library call (the scan SSAO rounds two offsets
+/// a sample): v + 0.5 away from zero is exact in double for every float, so truncating it rounds
+/// halves away from zero as lround does.
+inline long round_half_away(float v) {
+  const double d = static_cast<double>(v);
+  return static_cast<long>(d + std::copysign(0.5, d));
+}
+
 /// The class of pixel (x, y) in the 4x4 tile of pattern rotations.
 inline int pattern_class(int x, int y) {
   return (x & 3) + kSsaoPatternTile * (y & 3);

@@ -4,9 +4,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
+#include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "ao/ssao_kernels.h"
 #include "sim/synth_scanner.h"
 
 namespace aoscan {
@@ -68,6 +72,26 @@ TEST(ScanSsao, SamplesFallingInHolesReadTheNeighbouringPoints) {
         EXPECT_EQ(ao_holed(x, y), 1.0f);  // no point, no AO
       }
     }
+}
+
+TEST(ScanSsao, TheSamplesOffsetsRoundAsLround) {
+  // detail::round_half_away against std::lround, its reference: halves, the floats just below
+  // them, zeros, the tiny and the large, and a million random floats over every magnitude.
+  std::vector<float> values = {
+      0.0f,    -0.0f,   0.5f,       -0.5f,
+      1.5f,    -1.5f,   2.5f,       -2.5f,
+      159.5f,  -159.5f, 8388607.5f, 1e-30f,
+      -1e-30f, 1e9f,    -1e9f,      std::numeric_limits<float>::denorm_min()};
+  for (float half : {0.5f, 1.5f, 2.5f, 100.5f, 8388607.5f}) {
+    values.push_back(std::nextafter(half, 0.0f));
+    values.push_back(-std::nextafter(half, 0.0f));
+    values.push_back(std::nextafter(half, 1e10f));
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> mantissa(-1.0f, 1.0f);
+  std::uniform_int_distribution<int> exponent(-30, 30);
+  for (int k = 0; k < 1000000; ++k) values.push_back(std::ldexp(mantissa(rng), exponent(rng)));
+  for (float v : values) ASSERT_EQ(detail::round_half_away(v), std::lround(v)) << v;
 }
 
 }  // namespace
