@@ -24,10 +24,9 @@ inline float atan2_poly(float y, float x) {
   const float reduced = (a - 1.0f) / (a + 1.0f);
   const float r = upper ? reduced : a;
   const float z = r * r;
-  const float octant = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z -
-                        3.33329491539e-1f) *
-                           z * r +
-                       r + (upper ? 0.25f * kPiF : 0.0f);
+  const float poly =
+      ((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z - 3.33329491539e-1f;
+  const float octant = poly * z * r + r + (upper ? 0.25f * kPiF : 0.0f);
   const float first = ay > ax ? 0.5f * kPiF - octant : octant;  // [0, pi/2]
   const float half = x < 0.0f ? kPiF - first : first;           // [0, pi]
   return std::copysign(half, y);
