@@ -29,8 +29,9 @@ inline float smoothstep01(float d, float t_max) {
 }
 
 /// std::lround(v) for a finite float, without the library call (the scan SSAO rounds two offsets
-/// a sample): v + 0.5 away from zero is exact in double for every float, so truncating it rounds
-/// halves away from zero as lround does.
+/// a sample): v + 0.5 away from zero is exact in double for every float of magnitude 0.5 or
+/// more, and below 1 in magnitude for the smaller ones, so truncating it rounds halves away from
+/// zero as lround does.
 inline long round_half_away(float v) {
   const double d = static_cast<double>(v);
   return static_cast<long>(d + std::copysign(0.5, d));
