@@ -11,6 +11,7 @@
 
 #include "ao/ssao.h"
 #include "ao/ssao_kernels.h"
+#include "core/status.h"
 
 namespace aoscan {
 namespace {
@@ -56,10 +57,18 @@ bool sample_pixel(const Image<std::uint8_t>& kind, int x, int y, float du, float
   return take(x0 + ex, y0 + ey);
 }
 
-/// The unsmoothed SSAO of pixel (x, y).
-float pixel_ao(const RangeMap& map, const Image<std::uint8_t>& kind, const AoConfig& config,
-               const SsaoPattern& pattern, int x, int y) {
+/// The position SSAO reads at pixel (x, y): the point, moved along its normal by `offset_m`
+/// when there is one (compute_scan_normals()'s plane offsets).
+Eigen::Vector3f ssao_point(const RangeMap& map, const Image<float>* offset_m, int x, int y) {
   const Eigen::Vector3f& p = map.points(x, y);
+  if (offset_m == nullptr) return p;
+  return p + (*offset_m)(x, y) * map.normals(x, y);
+}
+
+/// The unsmoothed SSAO of pixel (x, y).
+float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<std::uint8_t>& kind,
+               const AoConfig& config, const SsaoPattern& pattern, int x, int y) {
+  const Eigen::Vector3f p = ssao_point(map, offset_m, x, y);
   const Eigen::Vector3f& n = map.normals(x, y);
   const ScanCamera& camera = map.camera;
   const float depth = camera.depth(p);
@@ -83,7 +92,7 @@ float pixel_ao(const RangeMap& map, const Image<std::uint8_t>& kind, const AoCon
     int sx = 0, sy = 0;
     if (!sample_pixel(kind, x, y, o.x() * radius_px, o.y() * radius_px, wrap, sx, sy)) continue;
     if (sx == x && sy == y) continue;
-    const Eigen::Vector3f v = map.points(sx, sy) - p;
+    const Eigen::Vector3f v = ssao_point(map, offset_m, sx, sy) - p;
     const float d2 = v.squaredNorm();
     if (!(d2 > 0.0f)) continue;
     ++counted;
@@ -111,8 +120,11 @@ bool has_normal(const RangeMap& map, int x, int y) {
 }  // namespace
 
 void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_t pattern_index,
-                       Image<float>& ao) {
+                       Image<float>& ao, const Image<float>& plane_offset_m) {
   const int w = map.camera.width, h = map.camera.height;
+  if (!plane_offset_m.empty() && (plane_offset_m.width() != w || plane_offset_m.height() != h))
+    throw usage_error(map.name + ": plane offsets of another size than the map");
+  const Image<float>* offset_m = plane_offset_m.empty() ? nullptr : &plane_offset_m;
   const SsaoPattern pattern = make_ssao_pattern(config, pattern_index);
   // Which pixels have a point, and which also a normal: read about 26 times a pixel below.
   Image<std::uint8_t> kind(w, h, 0);
@@ -126,7 +138,9 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x)
-        raw(x, y) = (kind(x, y) & kNormal) != 0 ? pixel_ao(map, kind, config, pattern, x, y) : 1.0f;
+        raw(x, y) = (kind(x, y) & kNormal) != 0
+                        ? pixel_ao(map, offset_m, kind, config, pattern, x, y)
+                        : 1.0f;
   });
   // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
   static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};

@@ -21,8 +21,11 @@ namespace aoscan {
 /// alchemy without the area factor; the slice estimators and statvo fall back to obscurance),
 /// the bias scaled by the point's depth. Then a 5 x 5 Gaussian (sigma 1 px) over the pixels with
 /// a point. `ao` takes the map's size: [0, 1], 1 = open; 1 where there is no point. Rows run in
-/// parallel; the result does not depend on the thread count.
+/// parallel; the result does not depend on the thread count. `plane_offset_m` (empty, or the
+/// map's size; compute_scan_normals() returns it): each point is read moved by it along its
+/// normal, onto the plane fitted to its neighbours, so that a noisy scan's range noise does not
+/// pass for occluders.
 void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_t pattern_index,
-                       Image<float>& ao);
+                       Image<float>& ao, const Image<float>& plane_offset_m = {});
 
 }  // namespace aoscan

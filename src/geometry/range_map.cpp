@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -96,8 +97,32 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
   return skipped;
 }
 
-void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px,
-                               float support_m, int min_points) {
+namespace {
+
+/// What a plane fit leaves per pixel beside the normal (either may be null): the root of the
+/// covariance's least eigenvalue, the points' spread along the normal (m), and the signed
+/// distance along the normal from the pixel's point to the fitted plane through the points'
+/// centroid (m).
+struct PlaneFitOutputs {
+  Image<float>* residual_m = nullptr;
+  Image<float>* offset_m = nullptr;
+};
+
+/// The window radius (pixels) of a fit at `depth_m` over `support_m` metres: radius_px, or the
+/// pixels support_m spans there when more, at most max_radius.
+int window_radius(const ScanCamera& camera, float depth_m, float support_m, int radius_px,
+                  int max_radius) {
+  if (!(support_m > 0.0f)) return radius_px;
+  const float pixels = support_m / point_radius(camera, depth_m);
+  if (!(pixels > static_cast<float>(radius_px))) return radius_px;
+  return pixels >= static_cast<float>(max_radius) ? max_radius
+                                                  : static_cast<int>(std::ceil(pixels));
+}
+
+/// compute_range_map_normals() with the support given per depth: support_of(depth) metres.
+template <typename SupportOf>
+void fit_normals(RangeMap& map, float max_jump_ratio, int radius_px, const SupportOf& support_of,
+                 int min_points, const PlaneFitOutputs& outputs) {
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.wraps();
   const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
@@ -109,14 +134,8 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_p
         if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f) || !map.has_point(x, y)) continue;
         const Eigen::Vector3f& p = map.points(x, y);
         const float depth = map.camera.depth(p);
-        int radius = radius_px;
-        if (support_m > 0.0f) {
-          const float pixels = support_m / point_radius(map.camera, depth);
-          if (pixels > static_cast<float>(radius))
-            radius = pixels >= static_cast<float>(max_radius)
-                         ? max_radius
-                         : static_cast<int>(std::ceil(pixels));
-        }
+        const int radius =
+            window_radius(map.camera, depth, support_of(depth), radius_px, max_radius);
         // Neighbours on the same surface, centred on p for a well-conditioned covariance; the
         // window grows ring by ring (ring r: the pixels at Chebyshev distance r).
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -166,12 +185,136 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_p
         if (!c.allFinite()) continue;
         if (c.dot(p) > 0.0f) c = -c;
         n = c.normalized();
+        if (outputs.residual_m != nullptr)
+          (*outputs.residual_m)(x, y) = static_cast<float>(std::sqrt(std::max(values(0), 0.0)));
+        if (outputs.offset_m != nullptr)
+          (*outputs.offset_m)(x, y) = static_cast<float>(n.cast<double>().dot(mean));
       }
   });
 }
 
-void compute_scan_normals(RangeMap& map) {
-  compute_range_map_normals(map, 0.05f, 2, kScanNormalSupportM, kScanNormalMinPoints);
+/// The spread of a scan's points along their normals as a function of depth: the median of the
+/// plane fits' residuals (the pixels whose residual is not negative) in kBins depth bins spaced
+/// evenly in log depth between the nearest and the farthest fitted point, each bin's median read
+/// from a histogram of kBucketsPerDecade buckets a decade (about 7 % apart) from kMinResidualM
+/// up. A bin with fewer than kMinSamples fits, or less than 1/kMinShareInverse of them, takes the
+/// value of the nearest bin that has them; a map with no such bin has sigma 0 everywhere. Medians,
+/// so that the fits across creases and depth jumps, a minority, do not count; the share, so that a
+/// room's farthest points, its corners (creases all), make no bin of their own. Memory: the
+/// histograms only, whatever the map's size.
+class DepthNoise {
+ public:
+  static constexpr int kBins = 16;
+  static constexpr long long kMinSamples = 256;
+  static constexpr long long kMinShareInverse = 256;  ///< and at least 1/256 of all the fits
+  static constexpr int kBucketsPerDecade = 32;
+  static constexpr float kMinResidualM = 1e-5f;
+  static constexpr int kBuckets = 5 * kBucketsPerDecade;  ///< up to 1 m
+
+  DepthNoise(const RangeMap& map, const Image<float>& residual_m) {
+    const int w = map.points.width(), h = map.points.height();
+    float log_lo = std::numeric_limits<float>::infinity(), log_hi = -log_lo;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (residual_m(x, y) >= 0.0f) {
+          const float d = std::log(map.camera.depth(map.points(x, y)));
+          log_lo = std::min(log_lo, d);
+          log_hi = std::max(log_hi, d);
+        }
+    if (!(log_lo <= log_hi)) return;
+    log_lo_ = log_lo;
+    bin_per_log_ = log_hi > log_lo ? kBins / (log_hi - log_lo) : 0.0f;
+    std::vector<long long> counts(static_cast<std::size_t>(kBins) * kBuckets, 0);
+    std::array<long long, kBins> totals{};
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const float r = residual_m(x, y);
+        if (!(r >= 0.0f)) continue;
+        const int b = bin(std::log(map.camera.depth(map.points(x, y))));
+        const float k = std::log10(std::max(r, kMinResidualM) / kMinResidualM) * kBucketsPerDecade;
+        const int bucket = k >= kBuckets - 1 ? kBuckets - 1 : static_cast<int>(k);
+        ++counts[static_cast<std::size_t>(b) * kBuckets + bucket];
+        ++totals[b];
+      }
+    long long all = 0;
+    for (const long long t : totals) all += t;
+    const long long enough = std::max(kMinSamples, all / kMinShareInverse);
+    std::array<bool, kBins> known{};
+    for (int b = 0; b < kBins; ++b) {
+      if (totals[b] < enough) continue;
+      long long seen = 0;
+      int bucket = 0;
+      while (bucket < kBuckets - 1 &&
+             (seen += counts[static_cast<std::size_t>(b) * kBuckets + bucket]) <= totals[b] / 2)
+        ++bucket;
+      sigma_[b] = kMinResidualM * std::pow(10.0f, (bucket + 0.5f) / kBucketsPerDecade);
+      known[b] = true;
+    }
+    for (int b = 0; b < kBins; ++b) {
+      if (known[b]) continue;
+      for (int d = 1; d < kBins; ++d) {
+        if (b - d >= 0 && known[b - d]) {
+          sigma_[b] = sigma_[b - d];
+          break;
+        }
+        if (b + d < kBins && known[b + d]) {
+          sigma_[b] = sigma_[b + d];
+          break;
+        }
+      }
+    }
+  }
+
+  /// The noise (m) at depth `depth_m`.
+  float sigma(float depth_m) const { return sigma_[bin(std::log(depth_m))]; }
+
+ private:
+  int bin(float log_depth) const {
+    const float b = (log_depth - log_lo_) * bin_per_log_;
+    return b >= kBins - 1 ? kBins - 1 : (b > 0.0f ? static_cast<int>(b) : 0);
+  }
+
+  float log_lo_ = 0.0f;
+  float bin_per_log_ = 0.0f;
+  std::array<float, kBins> sigma_{};
+};
+
+}  // namespace
+
+void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px, float support_m,
+                               int min_points) {
+  fit_normals(
+      map, max_jump_ratio, radius_px, [support_m](float) { return support_m; }, min_points,
+      PlaneFitOutputs{});
+}
+
+Image<float> compute_scan_normals(RangeMap& map) {
+  const int w = map.points.width(), h = map.points.height();
+  constexpr int kRadiusPx = 2;
+  Image<float> residual(w, h, -1.0f);  // -1: not fitted here (no point, or a normal given)
+  const auto floor = [](float) { return kScanNormalSupportM; };
+  fit_normals(map, kScanNormalMaxJumpRatio, kRadiusPx, floor, kScanNormalMinPoints,
+              PlaneFitOutputs{&residual, nullptr});
+  const DepthNoise noise(map, residual);
+  const auto support = [&noise](float depth_m) {
+    return std::max(kScanNormalSupportM, kNoiseSupportFactor * noise.sigma(depth_m));
+  };
+  // The pixels whose support the noise widens are fitted again over it, and get the offset to
+  // that fit's plane (even where the window already had its largest size: the offset is the
+  // denoising).
+  bool grown = false;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (residual(x, y) >= 0.0f &&
+          support(map.camera.depth(map.points(x, y))) > kScanNormalSupportM) {
+        map.normals(x, y).setZero();
+        grown = true;
+      }
+  if (!grown) return {};
+  Image<float> offset(w, h, 0.0f);
+  fit_normals(map, kScanNormalMaxJumpRatio, kRadiusPx, support, kScanNormalMinPoints,
+              PlaneFitOutputs{nullptr, &offset});
+  return offset;
 }
 
 }  // namespace aoscan

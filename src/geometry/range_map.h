@@ -67,10 +67,22 @@ inline constexpr int kDenseNormalRadiusPx = 3;
 /// The normals `aoscan scans` gives a scan's points: compute_range_map_normals() over at least
 /// kScanNormalSupportM around each point (a depth camera's noisy frames need more points than a
 /// 5 x 5 window holds; a laser scan's coarser pixels keep 5 x 5 to 7 x 7) and at least
-/// kScanNormalMinPoints points.
-void compute_scan_normals(RangeMap& map);
+/// kScanNormalMinPoints points. Then, where the scan's own range noise is large, again over a
+/// wider support: the spread of the points along those normals (the root of each fit's least
+/// eigenvalue), its median in bins of depth, is the noise sigma(depth); the pixels at depths where
+/// kNoiseSupportFactor * sigma exceeds kScanNormalSupportM are fitted over that many metres (a
+/// Kinect-class camera's noise grows with the square of the depth; a laser's few millimetres grow
+/// nothing). Returns, for those pixels, the signed distance (m) along the normal from the point to
+/// the plane fitted through its support (0 elsewhere): the point moved by it onto the plane is the
+/// surface without most of its noise (compute_scan_ssao() reads it). Returns an empty image when
+/// no pixel's support grew; the normals are then those of the first fit.
+Image<float> compute_scan_normals(RangeMap& map);
 inline constexpr float kScanNormalSupportM = 0.02f;
 inline constexpr int kScanNormalMinPoints = 16;
+/// Neighbours farther in depth than this times the point's depth are on another surface.
+inline constexpr float kScanNormalMaxJumpRatio = 0.05f;
+/// The support compute_scan_normals() gives a noisy scan, in multiples of its noise sigma.
+inline constexpr float kNoiseSupportFactor = 8.0f;
 
 /// The radius of the surface patch one pixel of `camera` covers at `depth_m` (metres): the
 /// footprint depth / pixels_per_metre_at_1m(). The rad(p) of Eq. 12's alpha = rad(p_i) / rad(p_ij)

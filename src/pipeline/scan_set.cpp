@@ -291,7 +291,8 @@ std::string mib(std::uint64_t bytes) {
 
 /// Memory the first stage takes per pixel of a scan's map beyond the map itself: the SSAO and its
 /// unsmoothed copy, and the border distance's depth, Laplacian, seeds and two jump-flooding
-/// buffers (measured peak, rounded up).
+/// buffers (measured peak, rounded up; the normals' residuals and plane offsets, 4 bytes each
+/// and gone before the border distance, stay under it).
 constexpr std::uint64_t kStageOneBytesPerPixel = 72;
 /// Held beside the budgeted scans: thread stacks, allocator slack, output buffers.
 constexpr std::uint64_t kSlackBytes = 64ull << 20;
@@ -625,8 +626,11 @@ void first_stage(const ScansOptions& options, const std::vector<Unit>& units,
       largest_need = std::max(largest_need, need);
       const Clock::time_point compute_start = Clock::now();
       RangeMap& map = scan.map;
-      compute_scan_normals(map);
-      compute_scan_ssao(map, options.config.ao, pattern_index(map.name), scan.ssao);
+      {
+        const Image<float> plane_offset_m = compute_scan_normals(map);
+        compute_scan_ssao(map, options.config.ao, pattern_index(map.name), scan.ssao,
+                          plane_offset_m);
+      }  // the offsets go before the border distance's buffers come
       border_distance(map, kMinEdgeRatio, scan.border_px);
       const ScanInfo info = describe_scan(scan, summary.source, summary.skipped);
       write_scan_file(file, info, scan);

@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "ao/ssao_kernels.h"
+#include "core/status.h"
+#include "geometry/range_map.h"
 #include "sim/synth_scanner.h"
 
 namespace aoscan {
@@ -92,6 +94,58 @@ TEST(ScanSsao, TheSamplesOffsetsRoundAsLround) {
   std::uniform_int_distribution<int> exponent(-30, 30);
   for (int k = 0; k < 1000000; ++k) values.push_back(std::ldexp(mantissa(rng), exponent(rng)));
   for (float v : values) ASSERT_EQ(detail::round_half_away(v), std::lround(v)) << v;
+}
+
+TEST(ScanSsao, ANoisyScansPointsMovedOntoTheirPlanesDoNotOccludeAnOpenPlane) {
+  // An open plane at 2-3 m seen by a depth camera with 7 mm of depth noise (a Kinect's there):
+  // every point's true AO is 1. Read raw, the noise passes for occluders above the tangent
+  // planes; read on the planes compute_scan_normals() fitted, hardly. Measured, mean occlusion
+  // (1 - SSAO) 0.0261 -> 0.0004, pixels below 0.95: 12.0 % -> 0.
+  const Intrinsics k{640, 480, 585.0, 585.0, 319.5, 239.5};
+  const Eigen::Vector3f normal = Eigen::Vector3f(0.2f, 0.4f, -1.0f).normalized();
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 0.007f);
+  Image<float> depth(k.width, k.height, 0.0f);
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      const Eigen::Vector3f ray(static_cast<float>((x - k.cx) / k.fx),
+                                static_cast<float>((y - k.cy) / k.fy), 1.0f);
+      depth(x, y) = -2.4f / normal.dot(ray) + noise(rng);
+    }
+  RangeMap map;
+  range_map_from_depth(depth, k, map);
+  const Image<float> offset = compute_scan_normals(map);
+  ASSERT_FALSE(offset.empty());
+  const AoConfig config;
+  Image<float> raw, moved, zero_moved;
+  compute_scan_ssao(map, config, 0, raw);
+  compute_scan_ssao(map, config, 0, moved, offset);
+  auto summary = [&](const Image<float>& ao, double& mean, double& below) {
+    double sum = 0.0;
+    long long n = 0, low = 0;
+    for (int y = 20; y < k.height - 20; ++y)
+      for (int x = 20; x < k.width - 20; ++x) {
+        sum += ao(x, y);
+        low += ao(x, y) < 0.95f ? 1 : 0;
+        ++n;
+      }
+    mean = sum / static_cast<double>(n);
+    below = static_cast<double>(low) / static_cast<double>(n);
+  };
+  double raw_mean = 0.0, raw_below = 0.0, moved_mean = 0.0, moved_below = 0.0;
+  summary(raw, raw_mean, raw_below);
+  summary(moved, moved_mean, moved_below);
+  std::printf("mean occlusion %.4f -> %.4f, below 0.95: %.2f %% -> %.2f %%\n", 1.0 - raw_mean,
+              1.0 - moved_mean, 100.0 * raw_below, 100.0 * moved_below);
+  EXPECT_GT(1.0 - raw_mean, 0.02);
+  EXPECT_LT(1.0 - moved_mean, (1.0 - raw_mean) / 20.0);
+  EXPECT_LT(moved_below, raw_below / 20.0);
+  // Offsets of zero read the points themselves: the same bits as no offsets.
+  compute_scan_ssao(map, config, 0, zero_moved, Image<float>(k.width, k.height, 0.0f));
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) ASSERT_EQ(zero_moved(x, y), raw(x, y));
+  EXPECT_THROW(compute_scan_ssao(map, config, 0, zero_moved, Image<float>(k.width, 1, 0.0f)),
+               Error);
 }
 
 }  // namespace

@@ -196,8 +196,8 @@ PreparedSet prepare_quality_set(const QualitySet& set, const QualityOptions& opt
       laser_scan(scene, set, pose, seed, map);
     if (map.count_points() == 0) throw input_error(set.label() + ": " + map.name + " is empty");
     if (options.exact_normals) set_exact_normals(scene, map);
-    compute_scan_normals(map);
-    compute_scan_ssao(map, options.ao, pattern_index(map.name), scan.ssao);
+    const Image<float> plane_offset_m = compute_scan_normals(map);
+    compute_scan_ssao(map, options.ao, pattern_index(map.name), scan.ssao, plane_offset_m);
     border_distance(map, kMinEdgeRatio, scan.border_px);
     for (int y = 0; y < map.camera.height; ++y)
       for (int x = 0; x < map.camera.width; ++x)
