@@ -177,7 +177,8 @@ void fit_normals(RangeMap& map, float max_jump_ratio, int radius_px, const Suppo
         if (count < 3) continue;
         const Eigen::Vector3d mean = sum / count;
         const Eigen::Matrix3d covariance = outer / count - mean * mean.transpose();
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+        eigen.computeDirect(covariance);
         const Eigen::Vector3d values = eigen.eigenvalues();  // ascending
         // Points on a line (or one point) leave the plane undetermined.
         if (!(values(1) > 1e-6 * values(2))) continue;
