@@ -14,6 +14,7 @@
 #include "core/status.h"
 #include "geometry/range_map.h"
 #include "sim/synth_scanner.h"
+#include "support/geometry_reference.h"
 
 namespace aoscan {
 namespace {
@@ -101,19 +102,10 @@ TEST(ScanSsao, ANoisyScansPointsMovedOntoTheirPlanesDoNotOccludeAnOpenPlane) {
   // every point's true AO is 1. Read raw, the noise passes for occluders above the tangent
   // planes; read on the planes compute_scan_normals() fitted, hardly. Measured, mean occlusion
   // (1 - SSAO) 0.0261 -> 0.0004, pixels below 0.95: 12.0 % -> 0.
-  const Intrinsics k{640, 480, 585.0, 585.0, 319.5, 239.5};
   const Eigen::Vector3f normal = Eigen::Vector3f(0.2f, 0.4f, -1.0f).normalized();
-  std::mt19937 rng(5);
-  std::normal_distribution<float> noise(0.0f, 0.007f);
-  Image<float> depth(k.width, k.height, 0.0f);
-  for (int y = 0; y < k.height; ++y)
-    for (int x = 0; x < k.width; ++x) {
-      const Eigen::Vector3f ray(static_cast<float>((x - k.cx) / k.fx),
-                                static_cast<float>((y - k.cy) / k.fy), 1.0f);
-      depth(x, y) = -2.4f / normal.dot(ray) + noise(rng);
-    }
-  RangeMap map;
-  range_map_from_depth(depth, k, map);
+  RangeMap map = noisy_plane_scan(
+      normal, 2.4f, [](float) { return 0.007f; }, 5);
+  const int w = map.camera.width, h = map.camera.height;
   const Image<float> offset = compute_scan_normals(map);
   ASSERT_FALSE(offset.empty());
   const AoConfig config;
@@ -123,8 +115,8 @@ TEST(ScanSsao, ANoisyScansPointsMovedOntoTheirPlanesDoNotOccludeAnOpenPlane) {
   auto summary = [&](const Image<float>& ao, double& mean, double& below) {
     double sum = 0.0;
     long long n = 0, low = 0;
-    for (int y = 20; y < k.height - 20; ++y)
-      for (int x = 20; x < k.width - 20; ++x) {
+    for (int y = 20; y < h - 20; ++y)
+      for (int x = 20; x < w - 20; ++x) {
         sum += ao(x, y);
         low += ao(x, y) < 0.95f ? 1 : 0;
         ++n;
@@ -141,11 +133,10 @@ TEST(ScanSsao, ANoisyScansPointsMovedOntoTheirPlanesDoNotOccludeAnOpenPlane) {
   EXPECT_LT(1.0 - moved_mean, (1.0 - raw_mean) / 20.0);
   EXPECT_LT(moved_below, raw_below / 20.0);
   // Offsets of zero read the points themselves: the same bits as no offsets.
-  compute_scan_ssao(map, config, 0, zero_moved, Image<float>(k.width, k.height, 0.0f));
-  for (int y = 0; y < k.height; ++y)
-    for (int x = 0; x < k.width; ++x) ASSERT_EQ(zero_moved(x, y), raw(x, y));
-  EXPECT_THROW(compute_scan_ssao(map, config, 0, zero_moved, Image<float>(k.width, 1, 0.0f)),
-               Error);
+  compute_scan_ssao(map, config, 0, zero_moved, Image<float>(w, h, 0.0f));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) ASSERT_EQ(zero_moved(x, y), raw(x, y));
+  EXPECT_THROW(compute_scan_ssao(map, config, 0, zero_moved, Image<float>(w, 1, 0.0f)), Error);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 
 #include "core/status.h"
 #include "geometry/range_map.h"
+#include "support/geometry_reference.h"
 
 namespace aoscan {
 namespace {
@@ -272,21 +273,9 @@ TEST(RangeMap, NoNormalAcrossADepthJump) {
 /// A tilted plane seen by a 640 x 480 depth camera at about 2.5 m, depth noise of sigma
 /// `noise_m` (seeded), and its exact normal (facing the camera).
 RangeMap noisy_plane(float noise_m, Eigen::Vector3f& normal) {
-  const Intrinsics k{640, 480, 585.0, 585.0, 319.5, 239.5};
   normal = Eigen::Vector3f(0.3f, -0.2f, -1.0f).normalized();
-  const float offset = 2.5f;  // the plane n . p = -offset
-  std::mt19937 rng(7);
-  std::normal_distribution<float> noise(0.0f, noise_m);
-  Image<float> depth(k.width, k.height, 0.0f);
-  for (int y = 0; y < k.height; ++y)
-    for (int x = 0; x < k.width; ++x) {
-      const Eigen::Vector3f ray(static_cast<float>((x - k.cx) / k.fx),
-                                static_cast<float>((y - k.cy) / k.fy), 1.0f);
-      depth(x, y) = -offset / normal.dot(ray) + noise(rng);
-    }
-  RangeMap map;
-  range_map_from_depth(depth, k, map);
-  return map;
+  return noisy_plane_scan(
+      normal, 2.5f, [noise_m](float) { return noise_m; }, 7);
 }
 
 /// Mean angle (degrees) between the map's normals and `normal` over the pixels 20 px or more
@@ -360,22 +349,10 @@ TEST(RangeMap, ASparseMapGrowsTheWindowUntilItHoldsTheLeastNumberOfPoints) {
 /// depth noise of sigma `near_m` where the true depth is below 1.8 m and `far_m` beyond (seeded),
 /// its normal (facing the camera) and the plane's offset d (n . p = -d).
 RangeMap noisy_slope(float near_m, float far_m, Eigen::Vector3f& normal, float& offset) {
-  const Intrinsics k{640, 480, 585.0, 585.0, 319.5, 239.5};
   normal = Eigen::Vector3f(0.1f, 1.1f, -1.0f).normalized();
   offset = 1.2f;
-  std::mt19937 rng(11);
-  std::normal_distribution<float> noise(0.0f, 1.0f);
-  Image<float> depth(k.width, k.height, 0.0f);
-  for (int y = 0; y < k.height; ++y)
-    for (int x = 0; x < k.width; ++x) {
-      const Eigen::Vector3f ray(static_cast<float>((x - k.cx) / k.fx),
-                                static_cast<float>((y - k.cy) / k.fy), 1.0f);
-      const float z = -offset / normal.dot(ray);
-      depth(x, y) = z + (z < 1.8f ? near_m : far_m) * noise(rng);
-    }
-  RangeMap map;
-  range_map_from_depth(depth, k, map);
-  return map;
+  return noisy_plane_scan(
+      normal, offset, [near_m, far_m](float z) { return z < 1.8f ? near_m : far_m; }, 11);
 }
 
 /// Mean angle (degrees) between the map's normals and `normal`, and RMS distance (m) of the
@@ -407,6 +384,14 @@ PlaneErrors plane_errors(const RangeMap& map, const Image<float>& offset_m,
   return e;
 }
 
+/// `map` with the normals of compute_scan_normals()'s first fits alone (2 cm, 16 points).
+RangeMap first_fits(const RangeMap& map) {
+  RangeMap first = map;
+  compute_range_map_normals(first, kScanNormalMaxJumpRatio, 2, kScanNormalSupportM,
+                            kScanNormalMinPoints);
+  return first;
+}
+
 TEST(RangeMap, AScansOwnNoiseWidensItsPlaneFitsWhereTheNoiseIsLarge) {
   // Half a millimetre of noise nearer than 1.8 m (a laser's order: 8 sigma stay under the 2 cm
   // floor), 8 mm beyond (a Kinect's at 3 m). compute_scan_normals() measures that noise from its
@@ -417,9 +402,7 @@ TEST(RangeMap, AScansOwnNoiseWidensItsPlaneFitsWhereTheNoiseIsLarge) {
   Eigen::Vector3f normal;
   float d = 0.0f;
   RangeMap map = noisy_slope(0.0005f, 0.008f, normal, d);
-  RangeMap first = map;
-  compute_range_map_normals(first, kScanNormalMaxJumpRatio, 2, kScanNormalSupportM,
-                            kScanNormalMinPoints);
+  const RangeMap first = first_fits(map);
   const Image<float> offset = compute_scan_normals(map);
   ASSERT_FALSE(offset.empty());
   const PlaneErrors before = plane_errors(first, {}, normal, d, 2.0f, 3.2f);
@@ -447,9 +430,7 @@ TEST(RangeMap, AScanWithoutLargeNoiseKeepsItsFirstFitAndGivenNormals) {
   Eigen::Vector3f normal;
   float d = 0.0f;
   RangeMap map = noisy_slope(0.001f, 0.001f, normal, d);
-  RangeMap first = map;
-  compute_range_map_normals(first, kScanNormalMaxJumpRatio, 2, kScanNormalSupportM,
-                            kScanNormalMinPoints);
+  const RangeMap first = first_fits(map);
   EXPECT_TRUE(compute_scan_normals(map).empty());
   for (int y = 0; y < map.camera.height; ++y)
     for (int x = 0; x < map.camera.width; ++x) ASSERT_EQ(map.normals(x, y), first.normals(x, y));
