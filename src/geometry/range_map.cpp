@@ -119,10 +119,19 @@ int window_radius(const ScanCamera& camera, float depth_m, float support_m, int 
                                                   : static_cast<int>(std::ceil(pixels));
 }
 
-/// compute_range_map_normals() with the support given per depth: support_of(depth) metres.
-template <typename SupportOf>
-void fit_normals(RangeMap& map, float max_jump_ratio, int radius_px, const SupportOf& support_of,
-                 int min_points, const PlaneFitOutputs& outputs) {
+/// fit_normals()'s choice of the pixels that have no normal yet.
+auto without_normal(const RangeMap& map) {
+  return [&map](int x, int y) {
+    const Eigen::Vector3f& n = map.normals(x, y);
+    return n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f;
+  };
+}
+
+/// compute_range_map_normals() of the pixels with a point for which fit(x, y) holds, with the
+/// support given per depth: support_of(depth) metres. A pixel whose fit fails keeps its normal.
+template <typename Fit, typename SupportOf>
+void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius_px,
+                 const SupportOf& support_of, int min_points, const PlaneFitOutputs& outputs) {
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.wraps();
   const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
@@ -130,8 +139,7 @@ void fit_normals(RangeMap& map, float max_jump_ratio, int radius_px, const Suppo
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
-        Eigen::Vector3f& n = map.normals(x, y);
-        if (!(n.x() == 0.0f && n.y() == 0.0f && n.z() == 0.0f) || !map.has_point(x, y)) continue;
+        if (!map.has_point(x, y) || !fit(x, y)) continue;
         const Eigen::Vector3f& p = map.points(x, y);
         const float depth = map.camera.depth(p);
         const int radius =
@@ -185,6 +193,7 @@ void fit_normals(RangeMap& map, float max_jump_ratio, int radius_px, const Suppo
         Eigen::Vector3f c = eigen.eigenvectors().col(0).cast<float>();
         if (!c.allFinite()) continue;
         if (c.dot(p) > 0.0f) c = -c;
+        Eigen::Vector3f& n = map.normals(x, y);
         n = c.normalized();
         if (outputs.residual_m != nullptr)
           (*outputs.residual_m)(x, y) = static_cast<float>(std::sqrt(std::max(values(0), 0.0)));
@@ -285,8 +294,8 @@ class DepthNoise {
 void compute_range_map_normals(RangeMap& map, float max_jump_ratio, int radius_px, float support_m,
                                int min_points) {
   fit_normals(
-      map, max_jump_ratio, radius_px, [support_m](float) { return support_m; }, min_points,
-      PlaneFitOutputs{});
+      map, without_normal(map), max_jump_ratio, radius_px, [support_m](float) { return support_m; },
+      min_points, PlaneFitOutputs{});
 }
 
 Image<float> compute_scan_normals(RangeMap& map) {
@@ -294,26 +303,25 @@ Image<float> compute_scan_normals(RangeMap& map) {
   constexpr int kRadiusPx = 2;
   Image<float> residual(w, h, -1.0f);  // -1: not fitted here (no point, or a normal given)
   const auto floor = [](float) { return kScanNormalSupportM; };
-  fit_normals(map, kScanNormalMaxJumpRatio, kRadiusPx, floor, kScanNormalMinPoints,
-              PlaneFitOutputs{&residual, nullptr});
+  fit_normals(map, without_normal(map), kScanNormalMaxJumpRatio, kRadiusPx, floor,
+              kScanNormalMinPoints, PlaneFitOutputs{&residual, nullptr});
   const DepthNoise noise(map, residual);
   const auto support = [&noise](float depth_m) {
     return std::max(kScanNormalSupportM, kNoiseSupportFactor * noise.sigma(depth_m));
   };
-  // The pixels whose support the noise widens are fitted again over it, and get the offset to
-  // that fit's plane (even where the window already had its largest size: the offset is the
-  // denoising).
-  bool grown = false;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (residual(x, y) >= 0.0f &&
-          support(map.camera.depth(map.points(x, y))) > kScanNormalSupportM) {
-        map.normals(x, y).setZero();
-        grown = true;
-      }
-  if (!grown) return {};
+  // The pixels fitted above whose support the noise widens are fitted again over it, and get the
+  // offset to that fit's plane (even where the window already had its largest size: the offset
+  // is the denoising).
+  const auto widened = [&](int x, int y) {
+    return residual(x, y) >= 0.0f &&
+           support(map.camera.depth(map.points(x, y))) > kScanNormalSupportM;
+  };
+  bool any = false;
+  for (int y = 0; y < h && !any; ++y)
+    for (int x = 0; x < w && !any; ++x) any = widened(x, y);
+  if (!any) return {};
   Image<float> offset(w, h, 0.0f);
-  fit_normals(map, kScanNormalMaxJumpRatio, kRadiusPx, support, kScanNormalMinPoints,
+  fit_normals(map, widened, kScanNormalMaxJumpRatio, kRadiusPx, support, kScanNormalMinPoints,
               PlaneFitOutputs{nullptr, &offset});
   return offset;
 }

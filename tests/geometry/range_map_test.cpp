@@ -457,5 +457,25 @@ TEST(RangeMap, AScanWithoutLargeNoiseKeepsItsFirstFitAndGivenNormals) {
     for (int x = 0; x < given.camera.width; ++x) ASSERT_EQ(given.normals(x, y), normal);
 }
 
+TEST(RangeMap, APointWhoseWiderFitFailsKeepsItsFirstNormal) {
+  // A 3 x 3-pixel patch of a wall at 4 m in front of a wall at 6 m, both with 8 mm of noise. The
+  // 2 cm fit there reads the 7 x 7 pixels around the patch's middle and finds the patch's nine
+  // points; the noise widens the support to the 17 x 17 window, read at 7 x 7 pixels spread over
+  // it, of which only the middle lies on the near wall: too few points for a plane. The middle
+  // keeps the first fit's normal (and no offset) instead of losing its normal.
+  RangeMap map = noisy_plane_scan(
+      Eigen::Vector3f(0.05f, 0.02f, -1.0f).normalized(), 4.0f, [](float) { return 0.008f; }, 13);
+  for (int y = 0; y < map.camera.height; ++y)
+    for (int x = 0; x < map.camera.width; ++x)
+      if (x < 300 || x > 302 || y < 239 || y > 241) map.points(x, y) *= 1.5f;
+  const RangeMap first = first_fits(map);
+  const Image<float> offset = compute_scan_normals(map);
+  ASSERT_FALSE(offset.empty());
+  ASSERT_GT(first.normals(301, 240).squaredNorm(), 0.5f);
+  EXPECT_EQ(map.normals(301, 240), first.normals(301, 240));
+  EXPECT_EQ(offset(301, 240), 0.0f);
+  EXPECT_NE(offset(100, 100), 0.0f);  // the far wall's pixels are fitted again
+}
+
 }  // namespace
 }  // namespace aoscan
