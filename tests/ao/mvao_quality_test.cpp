@@ -20,6 +20,18 @@ void print(const test::QualityRow& r) {
       r.mvao_3x3_r, r.mvao_no_wb_r, r.wb_step_error, r.no_wb_step_error);
 }
 
+/// The quality of three 320 x 240 depth-camera frames of the corner with `noise`.
+test::QualityRow three_corner_frames(test::QualityNoise noise) {
+  test::QualitySet set;
+  set.scene = "corner";
+  set.camera = test::QualityCamera::kPinhole;
+  set.noise = noise;
+  set.scans = 3;
+  set.pinhole_width = 320;
+  set.pinhole_height = 240;
+  return test::measure_mvao_quality(set, test::QualityOptions{});
+}
+
 TEST(MvaoQuality, ThreeLaserScansOfTheRoomMeetTheTarget) {
 #if defined(AOSCAN_SANITIZED)
   GTEST_SKIP() << "an accuracy measurement on three large scans; too slow under the sanitizers, "
@@ -54,13 +66,7 @@ TEST(MvaoQuality, ThreeDepthCameraFramesOfTheCornerGainLessButSmoothTheirSeams) 
   // the SSAO reaches 0.91, the MVAO 0.94 on the benchmark's 640 x 480 frames), so the MVAO gains
   // 0.034, not the 0.05 of the target; it does clear r 0.90. The frustum edges are coverage
   // borders on open surfaces, the seams w_b is for.
-  test::QualitySet set;
-  set.scene = "corner";
-  set.camera = test::QualityCamera::kPinhole;
-  set.scans = 3;
-  set.pinhole_width = 320;
-  set.pinhole_height = 240;
-  const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
+  const test::QualityRow r = three_corner_frames(test::QualityNoise::kLaser);
   print(r);
   // Measured: SSAO 0.894, MVAO 0.928 (3x3 0.926, without w_b 0.917); step error 0.0051 with
   // w_b, 0.0121 without, over 1280 border pairs.
@@ -78,14 +84,7 @@ TEST(MvaoQuality, ThreeKinectFramesOfTheCornerReadTheirPointsOnTheirPlanes) {
   // fitted planes (compute_scan_normals()). Measured: SSAO 0.675, MVAO 0.690 (the 640 x 480
   // frames of the benchmark: 0.843, 0.857); with the 2 cm fits alone, as before the noise
   // model, SSAO 0.405, MVAO 0.424.
-  test::QualitySet set;
-  set.scene = "corner";
-  set.camera = test::QualityCamera::kPinhole;
-  set.noise = test::QualityNoise::kKinect;
-  set.scans = 3;
-  set.pinhole_width = 320;
-  set.pinhole_height = 240;
-  const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
+  const test::QualityRow r = three_corner_frames(test::QualityNoise::kKinect);
   print(r);
   EXPECT_GT(r.evaluated, 10000);
   EXPECT_GE(r.ssao_r, 0.62);
