@@ -92,7 +92,9 @@ bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b,
 namespace {
 
 /// corresponding_pixel() once q's pixel (px, py) is known.
+/// `noisy`: noise_i or map_j.noise is known (the noise test is skipped otherwise).
 bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
+                            const ScanNoise& noise_i, float depth_i, bool noisy,
                             const Eigen::Vector3f& scanner_i, int& px, int& py) {
   if (!map_j.has_point(px, py)) {
     // A hole: the measured neighbour nearest to q stands for the point at q's pixel.
@@ -117,17 +119,33 @@ bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, flo
     py = by;
   }
   const Eigen::Vector3f& p_ij = map_j.points(px, py);
-  const float t = std::max(rad_i, point_radius(map_j.camera, map_j.camera.depth(p_ij)));
-  if (!((q - p_ij).norm() < 2.0f * t)) return false;
+  const float depth_j = map_j.camera.depth(p_ij);
+  const float t = std::max(rad_i, point_radius(map_j.camera, depth_j));
+  const float distance = (q - p_ij).norm();
+  if (!(distance < 2.0f * t)) {
+    // Farther than the pixels' spacing: within the range noise of the two points?
+    if (!noisy) return false;
+    const float sigma_i = noise_i.sigma(depth_i);
+    const float sigma_j = map_j.noise.sigma(depth_j);
+    const float t_noise = kNoiseMatchFactor * std::sqrt(sigma_i * sigma_i + sigma_j * sigma_j);
+    if (!(distance < 2.0f * t_noise)) return false;
+  }
   return (scanner_i - p_ij).dot(map_j.normals(px, py)) > 0.0f;
 }
 
 }  // namespace
 
+float pair_margin(const MultiScanParams& params, const ScanNoise& a, const ScanNoise& b) {
+  const float sa = a.max_sigma(), sb = b.max_sigma();
+  return std::max(params.pair_margin_m, 2.0f * kNoiseMatchFactor * std::sqrt(sa * sa + sb * sb));
+}
+
 bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
-                         const Eigen::Vector3f& scanner_i, int& px, int& py) {
+                         const ScanNoise& noise_i, float depth_i, const Eigen::Vector3f& scanner_i,
+                         int& px, int& py) {
   return map_j.camera.pixel_of(q, px, py) &&
-         corresponding_pixel_at(map_j, q, rad_i, scanner_i, px, py);
+         corresponding_pixel_at(map_j, q, rad_i, noise_i, depth_i,
+                                noise_i.known() || map_j.noise.known(), scanner_i, px, py);
 }
 
 MvaoSamples::MvaoSamples(const ScanAo& scan_j, const MultiScanParams& params) {
@@ -178,6 +196,7 @@ void MvaoAccumulator::add(const ScanAo& scan_j, const MvaoSamples& samples_j, bo
   f.scanner_i = f.t;
   const int width = map_i.camera.width;
   const int half = params_.neighbourhood / 2;
+  const bool noisy = map_i.noise.known() || map_j.noise.known();
   tbb::parallel_for(tbb::blocked_range<int>(0, map_i.camera.height),
                     [&](const tbb::blocked_range<int>& rows) {
                       // A row goes in runs of points: first the points' pixels in scan j, projected
@@ -185,7 +204,7 @@ void MvaoAccumulator::add(const ScanAo& scan_j, const MvaoSamples& samples_j, bo
                       // will read fetched ahead, then the correspondences and samples, so that a
                       // run's random reads into scan j overlap.
                       constexpr int kRun = 32;
-                      float qx[kRun], qy[kRun], qz[kRun], rad[kRun];
+                      float qx[kRun], qy[kRun], qz[kRun], rad[kRun], depth[kRun];
                       int xs[kRun], pxs[kRun], pys[kRun];
                       const int reach = std::max(half, 1);  // rows of scan j read around a pixel
                       for (int y = rows.begin(); y < rows.end(); ++y)
@@ -198,7 +217,8 @@ void MvaoAccumulator::add(const ScanAo& scan_j, const MvaoSamples& samples_j, bo
                             qx[points] = q.x();
                             qy[points] = q.y();
                             qz[points] = q.z();
-                            rad[points] = point_radius(map_i.camera, map_i.camera.depth(p));
+                            depth[points] = map_i.camera.depth(p);
+                            rad[points] = point_radius(map_i.camera, depth[points]);
                             xs[points++] = x;
                           }
                           map_j.camera.pixels_of(qx, qy, qz, points, pxs, pys);
@@ -215,7 +235,8 @@ void MvaoAccumulator::add(const ScanAo& scan_j, const MvaoSamples& samples_j, bo
                             int px = pxs[k], py = pys[k];
                             if (px < 0) continue;
                             const Eigen::Vector3f q(qx[k], qy[k], qz[k]);
-                            if (!corresponding_pixel_at(map_j, q, rad[k], f.scanner_i, px, py))
+                            if (!corresponding_pixel_at(map_j, q, rad[k], map_i.noise, depth[k],
+                                                        noisy, f.scanner_i, px, py))
                               continue;
                             const std::size_t i = static_cast<std::size_t>(y) * width + xs[k];
                             Sum sum{ao_w_[i], w_[i]};
@@ -261,7 +282,8 @@ MultiScanStats integrate_scans(const std::vector<ScanAo>& scans, const MultiScan
   for (int i = 0; i < n; ++i) {
     MvaoAccumulator accumulator(scans[i], params);
     for (int j = 0; j < n; ++j) {
-      if (j != i && !scan_boxes_meet(boxes[i], boxes[j], params.pair_margin_m)) {
+      if (j != i && !scan_boxes_meet(boxes[i], boxes[j],
+                                     pair_margin(params, scans[i].map.noise, scans[j].map.noise))) {
         ++stats.pairs_skipped;
         continue;
       }

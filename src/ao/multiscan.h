@@ -32,7 +32,7 @@ struct MultiScanParams {
   bool border_weight = true;  ///< false: w_b = 1 (the ablation of Fig. 5)
   int neighbourhood = 1;      ///< N of the N x N samples per corresponding point (odd, 1..9)
   /// Scans whose world bounding boxes, grown by this margin (m), do not meet are not paired
-  /// (they cannot share a point); the margin covers the 2t distance test.
+  /// (they cannot share a point); the margin covers the 2t distance test (pair_margin()).
   float pair_margin_m = 0.05f;
 };
 
@@ -57,10 +57,22 @@ bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b,
 /// point p_ij joins L_2. p_ij is the point scan j measured at q's pixel or, when that pixel has
 /// none (a hole of the map: a missed return, or a cloud rebuilt into the Sec. 7 map, which holds
 /// a point in about half of its pixels), the point of its 8 neighbours nearest to q (ties to the
-/// first in row order); it joins when it lies within 2 t of q (t = the larger point radius of the
-/// two, point_radius()) and faces scanner i ((scanner_i - p_ij) . n_ij > 0).
+/// first in row order); it joins when it lies within 2 t of q and faces scanner i ((scanner_i -
+/// p_ij) . n_ij > 0). t is the larger point radius of the two (point_radius()) or, where the
+/// scans' range noise is larger, kNoiseMatchFactor times the noise of the two points together:
+/// scan i's `noise_i` at the point's depth there, `depth_i`, and scan j's at p_ij's depth
+/// (RangeMap::noise; 0 where unknown), so that a noisy camera's scans of one surface still find
+/// each other.
 bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
-                         const Eigen::Vector3f& scanner_i, int& px, int& py);
+                         const ScanNoise& noise_i, float depth_i, const Eigen::Vector3f& scanner_i,
+                         int& px, int& py);
+/// The multiple of the two points' range noise, sqrt(sigma_i^2 + sigma_j^2), within which (times 2)
+/// corresponding_pixel() accepts a point.
+inline constexpr float kNoiseMatchFactor = 1.5f;
+/// How far apart two scans' world boxes may lie and the scans still share a point:
+/// params.pair_margin_m, or the reach of corresponding_pixel()'s noise test at the scans' largest
+/// noise when that is farther.
+float pair_margin(const MultiScanParams& params, const ScanNoise& a, const ScanNoise& b);
 
 /// What the integration reads of each pixel of a candidate scan j besides its point and normal,
 /// worked out once per scan instead of once per sample (a pixel is a sample of every point of

@@ -212,82 +212,67 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
 /// so that the fits across creases and depth jumps, a minority, do not count; the share, so that a
 /// room's farthest points, its corners (creases all), make no bin of their own. Memory: the
 /// histograms only, whatever the map's size.
-class DepthNoise {
- public:
-  static constexpr int kBins = 16;
-  static constexpr long long kMinSamples = 256;
-  static constexpr long long kMinShareInverse = 256;  ///< and at least 1/256 of all the fits
-  static constexpr int kBucketsPerDecade = 32;
-  static constexpr float kMinResidualM = 1e-5f;
-  static constexpr int kBuckets = 5 * kBucketsPerDecade;  ///< up to 1 m
-
-  DepthNoise(const RangeMap& map, const Image<float>& residual_m) {
-    const int w = map.points.width(), h = map.points.height();
-    float log_lo = std::numeric_limits<float>::infinity(), log_hi = -log_lo;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        if (residual_m(x, y) >= 0.0f) {
-          const float d = std::log(map.camera.depth(map.points(x, y)));
-          log_lo = std::min(log_lo, d);
-          log_hi = std::max(log_hi, d);
-        }
-    if (!(log_lo <= log_hi)) return;
-    log_lo_ = log_lo;
-    bin_per_log_ = log_hi > log_lo ? kBins / (log_hi - log_lo) : 0.0f;
-    std::vector<long long> counts(static_cast<std::size_t>(kBins) * kBuckets, 0);
-    std::array<long long, kBins> totals{};
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        const float r = residual_m(x, y);
-        if (!(r >= 0.0f)) continue;
-        const int b = bin(std::log(map.camera.depth(map.points(x, y))));
-        const float k = std::log10(std::max(r, kMinResidualM) / kMinResidualM) * kBucketsPerDecade;
-        const int bucket = k >= kBuckets - 1 ? kBuckets - 1 : static_cast<int>(k);
-        ++counts[static_cast<std::size_t>(b) * kBuckets + bucket];
-        ++totals[b];
+ScanNoise measure_depth_noise(const RangeMap& map, const Image<float>& residual_m) {
+  constexpr int kBins = ScanNoise::kBins;
+  constexpr long long kMinSamples = 256;
+  constexpr long long kMinShareInverse = 256;  // and at least 1/256 of all the fits
+  constexpr int kBucketsPerDecade = 32;
+  constexpr float kMinResidualM = 1e-5f;
+  constexpr int kBuckets = 5 * kBucketsPerDecade;  // up to 1 m
+  ScanNoise noise;
+  const int w = map.points.width(), h = map.points.height();
+  float log_lo = std::numeric_limits<float>::infinity(), log_hi = -log_lo;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (residual_m(x, y) >= 0.0f) {
+        const float d = std::log(map.camera.depth(map.points(x, y)));
+        log_lo = std::min(log_lo, d);
+        log_hi = std::max(log_hi, d);
       }
-    long long all = 0;
-    for (const long long t : totals) all += t;
-    const long long enough = std::max(kMinSamples, all / kMinShareInverse);
-    std::array<bool, kBins> known{};
-    for (int b = 0; b < kBins; ++b) {
-      if (totals[b] < enough) continue;
-      long long seen = 0;
-      int bucket = 0;
-      while (bucket < kBuckets - 1 &&
-             (seen += counts[static_cast<std::size_t>(b) * kBuckets + bucket]) <= totals[b] / 2)
-        ++bucket;
-      sigma_[b] = kMinResidualM * std::pow(10.0f, (bucket + 0.5f) / kBucketsPerDecade);
-      known[b] = true;
+  if (!(log_lo <= log_hi)) return noise;
+  noise.log_lo = log_lo;
+  noise.bin_per_log = log_hi > log_lo ? kBins / (log_hi - log_lo) : 0.0f;
+  std::vector<long long> counts(static_cast<std::size_t>(kBins) * kBuckets, 0);
+  std::array<long long, kBins> totals{};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float r = residual_m(x, y);
+      if (!(r >= 0.0f)) continue;
+      const int b = noise.bin(map.camera.depth(map.points(x, y)));
+      const float k = std::log10(std::max(r, kMinResidualM) / kMinResidualM) * kBucketsPerDecade;
+      const int bucket = k >= kBuckets - 1 ? kBuckets - 1 : static_cast<int>(k);
+      ++counts[static_cast<std::size_t>(b) * kBuckets + bucket];
+      ++totals[b];
     }
-    for (int b = 0; b < kBins; ++b) {
-      if (known[b]) continue;
-      for (int d = 1; d < kBins; ++d) {
-        if (b - d >= 0 && known[b - d]) {
-          sigma_[b] = sigma_[b - d];
-          break;
-        }
-        if (b + d < kBins && known[b + d]) {
-          sigma_[b] = sigma_[b + d];
-          break;
-        }
+  long long all = 0;
+  for (const long long t : totals) all += t;
+  const long long enough = std::max(kMinSamples, all / kMinShareInverse);
+  std::array<bool, kBins> known{};
+  for (int b = 0; b < kBins; ++b) {
+    if (totals[b] < enough) continue;
+    long long seen = 0;
+    int bucket = 0;
+    while (bucket < kBuckets - 1 &&
+           (seen += counts[static_cast<std::size_t>(b) * kBuckets + bucket]) <= totals[b] / 2)
+      ++bucket;
+    noise.sigma_m[b] = kMinResidualM * std::pow(10.0f, (bucket + 0.5f) / kBucketsPerDecade);
+    known[b] = true;
+  }
+  for (int b = 0; b < kBins; ++b) {
+    if (known[b]) continue;
+    for (int d = 1; d < kBins; ++d) {
+      if (b - d >= 0 && known[b - d]) {
+        noise.sigma_m[b] = noise.sigma_m[b - d];
+        break;
+      }
+      if (b + d < kBins && known[b + d]) {
+        noise.sigma_m[b] = noise.sigma_m[b + d];
+        break;
       }
     }
   }
-
-  /// The noise (m) at depth `depth_m`.
-  float sigma(float depth_m) const { return sigma_[bin(std::log(depth_m))]; }
-
- private:
-  int bin(float log_depth) const {
-    const float b = (log_depth - log_lo_) * bin_per_log_;
-    return b >= kBins - 1 ? kBins - 1 : (b > 0.0f ? static_cast<int>(b) : 0);
-  }
-
-  float log_lo_ = 0.0f;
-  float bin_per_log_ = 0.0f;
-  std::array<float, kBins> sigma_{};
-};
+  return noise;
+}
 
 }  // namespace
 
@@ -305,9 +290,9 @@ Image<float> compute_scan_normals(RangeMap& map) {
   const auto floor = [](float) { return kScanNormalSupportM; };
   fit_normals(map, without_normal(map), kScanNormalMaxJumpRatio, kRadiusPx, floor,
               kScanNormalMinPoints, PlaneFitOutputs{&residual, nullptr});
-  const DepthNoise noise(map, residual);
-  const auto support = [&noise](float depth_m) {
-    return std::max(kScanNormalSupportM, kNoiseSupportFactor * noise.sigma(depth_m));
+  map.noise = measure_depth_noise(map, residual);
+  const auto support = [&map](float depth_m) {
+    return std::max(kScanNormalSupportM, kNoiseSupportFactor * map.noise.sigma(depth_m));
   };
   // The pixels fitted above whose support the noise widens are fitted again over it, and get the
   // offset to that fit's plane (even where the window already had its largest size: the offset

@@ -3,6 +3,9 @@
 /// scanner-frame position and normal of the point seen there, the scan's camera and its pose.
 #pragma once
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -14,6 +17,28 @@
 
 namespace aoscan {
 
+/// A scan's range noise as a function of depth: the spread of its points along their normals
+/// (m), in kBins bins spaced evenly in log depth (compute_scan_normals() measures it). All zero,
+/// the default, when it is not known.
+struct ScanNoise {
+  static constexpr int kBins = 16;
+  float log_lo = 0.0f;       ///< log of the nearest bin's lower depth bound (m)
+  float bin_per_log = 0.0f;  ///< bins per unit of log depth
+  std::array<float, kBins> sigma_m{};
+
+  /// The bin of `depth_m` (> 0); the first or the last beyond them.
+  int bin(float depth_m) const {
+    const float b = (std::log(depth_m) - log_lo) * bin_per_log;
+    return b >= kBins - 1 ? kBins - 1 : (b > 0.0f ? static_cast<int>(b) : 0);
+  }
+  /// The noise at `depth_m` (> 0).
+  float sigma(float depth_m) const { return sigma_m[bin(depth_m)]; }
+  /// The largest noise at any depth.
+  float max_sigma() const { return *std::max_element(sigma_m.begin(), sigma_m.end()); }
+  /// True when some bin's noise is known (not 0).
+  bool known() const { return max_sigma() > 0.0f; }
+};
+
 /// A scan's G-buffer. A pixel without a point has a zero position and a zero normal.
 struct RangeMap {
   std::string name;      ///< for messages and output file names
@@ -21,6 +46,7 @@ struct RangeMap {
   Pose T_world_scanner;  ///< scanner frame to world (the registration); the scanner sits at 0
   Image<Eigen::Vector3f> points;   ///< scanner frame (metres)
   Image<Eigen::Vector3f> normals;  ///< scanner frame, unit, facing the scanner (n . p < 0)
+  ScanNoise noise;                 ///< measured by compute_scan_normals(), else unknown
 
   /// True when the pixel has a point (a non-zero, finite position).
   bool has_point(int x, int y) const {
@@ -72,10 +98,11 @@ inline constexpr int kDenseNormalRadiusPx = 3;
 /// eigenvalue), its median in bins of depth, is the noise sigma(depth); the pixels at depths where
 /// kNoiseSupportFactor * sigma exceeds kScanNormalSupportM are fitted over that many metres (a
 /// Kinect-class camera's noise grows with the square of the depth; a laser's few millimetres grow
-/// nothing). Returns, for those pixels, the signed distance (m) along the normal from the point to
-/// the plane fitted through its support (0 elsewhere): the point moved by it onto the plane is the
-/// surface without most of its noise (compute_scan_ssao() reads it). Returns an empty image when
-/// no pixel's support grew; the normals are then those of the first fit.
+/// nothing); `map.noise` keeps sigma(depth). Returns, for those pixels, the signed distance (m)
+/// along the normal from the point to the plane fitted through its support (0 elsewhere): the point
+/// moved by it onto the plane is the surface without most of its noise (compute_scan_ssao() reads
+/// it). Returns an empty image when no pixel's support grew; the normals are then those of the
+/// first fit.
 Image<float> compute_scan_normals(RangeMap& map);
 inline constexpr float kScanNormalSupportM = 0.02f;
 inline constexpr int kScanNormalMinPoints = 16;

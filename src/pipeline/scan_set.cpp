@@ -719,7 +719,8 @@ void second_stage(const ScansOptions& options, const std::vector<ScanId>& ids,
   std::vector<std::vector<int>> candidates(n);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) {
-      if (j != i && !scan_boxes_meet(infos[i].world_box, infos[j].world_box, params.pair_margin_m)) {
+      if (j != i && !scan_boxes_meet(infos[i].world_box, infos[j].world_box,
+                                     pair_margin(params, infos[i].noise, infos[j].noise))) {
         ++result.pairs_skipped;
         continue;
       }

@@ -3,6 +3,7 @@
 #include "pipeline/scan_store.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -15,7 +16,7 @@
 namespace aoscan {
 namespace {
 
-constexpr char kScanMagic[] = "AOSCAN-SCAN 1\n";
+constexpr char kScanMagic[] = "AOSCAN-SCAN 2\n";
 constexpr char kValuesMagic[] = "AOSCAN-VALS 1\n";
 constexpr std::size_t kMagicSize = sizeof(kScanMagic) - 1;
 static_assert(sizeof(kValuesMagic) - 1 == kMagicSize);
@@ -133,6 +134,9 @@ void put_info(BinaryOut& out, const ScanInfo& info) {
   out.put(info.max_depth_m);
   out.put(static_cast<std::int64_t>(info.points));
   out.put(static_cast<std::int64_t>(info.skipped));
+  out.put(info.noise.log_lo);
+  out.put(info.noise.bin_per_log);
+  out.bytes(info.noise.sigma_m.data(), sizeof(float) * ScanNoise::kBins);
 }
 
 ScanInfo get_info(BinaryIn& in) {
@@ -160,6 +164,14 @@ ScanInfo get_info(BinaryIn& in) {
   info.max_depth_m = in.get<float>();
   info.points = in.get<std::int64_t>();
   info.skipped = in.get<std::int64_t>();
+  info.noise.log_lo = in.get<float>();
+  info.noise.bin_per_log = in.get<float>();
+  in.bytes(info.noise.sigma_m.data(), sizeof(float) * ScanNoise::kBins);
+  if (!std::isfinite(info.noise.log_lo) || !(info.noise.bin_per_log >= 0.0f) ||
+      !std::isfinite(info.noise.bin_per_log) ||
+      !std::all_of(info.noise.sigma_m.begin(), info.noise.sigma_m.end(),
+                   [](float v) { return v >= 0.0f && std::isfinite(v); }))
+    in.fail("its noise table is damaged");
   if (info.points < 0 || static_cast<std::size_t>(info.points) > info.pixels())
     in.fail("its point count does not fit its map");
   return info;
@@ -175,6 +187,7 @@ ScanInfo describe_scan(const ScanAo& scan, std::string source, long long skipped
   info.camera = map.camera;
   info.T_world_scanner = map.T_world_scanner;
   info.world_box = scan_world_box(map);
+  info.noise = map.noise;
   info.skipped = skipped;
   for (int y = 0; y < map.camera.height; ++y)
     for (int x = 0; x < map.camera.width; ++x)
@@ -230,6 +243,7 @@ void read_scan_file(const std::string& path, ScanAo& scan) {
   map.name = info.name;
   map.camera = info.camera;
   map.T_world_scanner = info.T_world_scanner;
+  map.noise = info.noise;
   const int w = info.camera.width, h = info.camera.height;
   map.points.resize(w, h, Eigen::Vector3f::Zero());
   map.normals.resize(w, h, Eigen::Vector3f::Zero());

@@ -31,6 +31,7 @@ struct ScanInfo {
   float max_depth_m = 0.0f;       ///< the largest depth of its points
   long long points = 0;
   long long skipped = 0;  ///< point-cloud points that did not fit the map
+  ScanNoise noise;        ///< its map's range noise (RangeMap::noise)
 
   /// Pixels of its map.
   std::size_t pixels() const {

@@ -123,6 +123,52 @@ TEST(MultiScan, ScansThatCannotMeetAreNotPaired) {
   EXPECT_EQ(stats.isolated_scans.size(), 2u);
 }
 
+TEST(MultiScan, NoisyScansOfOneSurfaceFindEachOtherWithinTheirNoise) {
+  // Scan B measures the plane 0.2 m behind where A does: farther than 2 t (t = the point radius,
+  // 2 m / 30 px = 0.067 m at this small camera; 0.073 m for B), so without their noise the two
+  // share no point. With a noise sigma of 0.06 m each, 2 x 1.5 x sqrt(2) x 0.06 = 0.255 m
+  // covers every pair (0.200-0.238 m apart along the rays), and the boxes, 0.2 m apart, are
+  // paired; with 0.04 m (0.170 m) neither.
+  const auto with_noise = [](ScanAo s, float sigma) {
+    s.map.noise.sigma_m.fill(sigma);
+    return s;
+  };
+  const ScanAo a = plane_scan(Pose::identity(), 2.0f, 0.2f, 100.0f);
+  const ScanAo b = plane_scan(Pose::identity(), 2.2f, 0.8f, 100.0f);
+  const int pixels = kCamera.width * kCamera.height;
+  std::vector<Image<float>> mvao;
+  std::vector<ScanAo> scans = {a, b};
+  MultiScanStats stats = integrate_scans(scans, no_border(), mvao);
+  EXPECT_EQ(stats.pairs_skipped, 2);
+  EXPECT_EQ(stats.points_shared, 0);
+  scans = {with_noise(a, 0.04f), with_noise(b, 0.04f)};
+  stats = integrate_scans(scans, no_border(), mvao);
+  EXPECT_EQ(stats.pairs_skipped, 2);
+  EXPECT_EQ(stats.points_shared, 0);
+  scans = {with_noise(a, 0.06f), with_noise(b, 0.06f)};
+  stats = integrate_scans(scans, no_border(), mvao);
+  EXPECT_EQ(stats.pairs_tested, 2);
+  EXPECT_EQ(stats.points_shared, 2 * pixels);
+  EXPECT_GT(mvao[0](16, 12), 0.2f);
+  EXPECT_LT(mvao[0](16, 12), 0.8f);
+
+  // The test itself at pixel (16, 12), 0.2001 m apart: accepted when 2 x 1.5 x sqrt(sigma_i^2 +
+  // sigma_j^2) exceeds that, with scan B's noise 0.05 m: sigma_i = 0.05 (0.212 m) yes, 0 (0.150 m)
+  // no; a scan without a noise (all 0) keeps the 2 t test.
+  const ScanAo noisy_b = with_noise(b, 0.05f);
+  const Eigen::Vector3f q = a.map.points(16, 12);
+  const float rad = point_radius(a.map.camera, 2.0f);
+  const Eigen::Vector3f scanner = Eigen::Vector3f::Zero();
+  const ScanNoise noisy = with_noise(a, 0.05f).map.noise, quiet;
+  int px = 0, py = 0;
+  EXPECT_TRUE(corresponding_pixel(noisy_b.map, q, rad, noisy, 2.0f, scanner, px, py));
+  EXPECT_EQ(px, 16);
+  EXPECT_EQ(py, 12);
+  EXPECT_FALSE(corresponding_pixel(noisy_b.map, q, rad, quiet, 2.0f, scanner, px, py));
+  EXPECT_FALSE(corresponding_pixel(b.map, q, rad, quiet, 2.0f, scanner, px, py));
+  EXPECT_TRUE(corresponding_pixel(b.map, q, 0.101f, quiet, 2.0f, scanner, px, py));
+}
+
 /// Removes pixel (x, y)'s point from `scan` (a hole of its map).
 void make_hole(ScanAo& scan, int x, int y) {
   scan.map.points(x, y).setZero();

@@ -42,6 +42,9 @@ ScanAo make_scan(const std::string& name) {
       s.ssao(x, y) = 0.01f * k;
       s.border_px(x, y) = 3.0f * k;
     }
+  s.map.noise.log_lo = -0.5f;
+  s.map.noise.bin_per_log = 3.25f;
+  for (int b = 0; b < ScanNoise::kBins; ++b) s.map.noise.sigma_m[b] = 1e-3f * (1.0f + 0.5f * b);
   return s;
 }
 
@@ -76,6 +79,9 @@ TEST(ScanStore, AScanFileGivesBackTheScanAndItsDescriptionExactly) {
   EXPECT_EQ(back.world_box.max(), info.world_box.max());
   EXPECT_EQ(back.T_world_scanner.matrix(), scan.map.T_world_scanner.matrix());
   EXPECT_EQ(back.camera.projection, ScanProjection::kEquirectangular);
+  EXPECT_EQ(back.noise.log_lo, -0.5f);
+  EXPECT_EQ(back.noise.bin_per_log, 3.25f);
+  EXPECT_EQ(back.noise.sigma_m, scan.map.noise.sigma_m);
 
   ScanAo loaded;
   read_scan_file(file, loaded);
@@ -84,6 +90,9 @@ TEST(ScanStore, AScanFileGivesBackTheScanAndItsDescriptionExactly) {
   expect_same(loaded.map.normals, scan.map.normals);
   expect_same(loaded.ssao, scan.ssao);
   expect_same(loaded.border_px, scan.border_px);
+  EXPECT_EQ(loaded.map.noise.sigma_m, scan.map.noise.sigma_m);
+  EXPECT_EQ(loaded.map.noise.log_lo, scan.map.noise.log_lo);
+  EXPECT_EQ(loaded.map.noise.bin_per_log, scan.map.noise.bin_per_log);
 
   Image<float> mvao(8, 4, 1.0f);
   for (int y = 0; y < 4; ++y)
@@ -123,6 +132,13 @@ TEST(ScanStore, DamagedOrMissingFilesAreErrorsNamingTheFile) {
   EXPECT_EQ(message_of([&] { read_scan_info(dir.file("other.bin")); }),
             dir.file("other.bin") + ": damaged scratch file: it is not a scratch file of this version");
   EXPECT_FALSE(mvao_file_shared(dir.file("absent.bin"), 21));
+
+  // A noise table that no scan could have measured.
+  ScanAo bad = scan;
+  bad.map.noise.sigma_m[3] = -1.0f;
+  write_scan_file(file, describe_scan(bad, "a.ply", 0), bad);
+  EXPECT_EQ(message_of([&] { read_scan_info(file); }),
+            file + ": damaged scratch file: its noise table is damaged");
 }
 
 TEST(ScanCache, DropsTheLeastRecentlyUsedScansThatNobodyHolds) {

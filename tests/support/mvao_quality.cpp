@@ -241,9 +241,12 @@ std::vector<Image<std::uint8_t>> coverage_counts(const std::vector<ScanAo>& scan
                               if (!map_i.has_point(x, y)) continue;
                               const Eigen::Vector3f& p = map_i.points(x, y);
                               const Eigen::Vector3f q = R * p + t;
-                              const float rad_i = point_radius(map_i.camera, map_i.camera.depth(p));
+                              const float depth = map_i.camera.depth(p);
+                              const float rad_i = point_radius(map_i.camera, depth);
                               int px = 0, py = 0;
-                              if (!corresponding_pixel(map_j, q, rad_i, t, px, py)) continue;
+                              if (!corresponding_pixel(map_j, q, rad_i, map_i.noise, depth, t, px,
+                                                       py))
+                                continue;
                               if (count(x, y) < 255) ++count(x, y);
                             }
                         });
