@@ -121,13 +121,30 @@ BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<flo
     for (int x = 0; x < w; ++x)
       depth(x, y) = map.has_point(x, y) ? map.camera.depth(map.points(x, y)) : 0.0f;
   auto at = [&](int x, int y) { return onto_map(x, y, w, h, wrap) ? depth(x, y) : 0.0f; };
+  // A pixel of the map without a point that has one within kDropoutRadiusPx on both sides along
+  // its row or its column.
+  auto dropout = [&](int x, int y) {
+    auto side = [&](int dx, int dy) {
+      for (int k = 1; k <= kDropoutRadiusPx; ++k)
+        if (at(x + k * dx, y + k * dy) > 0.0f) return true;
+      return false;
+    };
+    return onto_map(x, y, w, h, wrap) &&
+           ((side(-1, 0) && side(1, 0)) || (side(0, -1) && side(0, 1)));
+  };
   Image<float> laplacian(w, h, 0.0f);
   std::vector<float> values;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      if (!(depth(x, y) > 0.0f)) continue;
-      const float l =
-          std::abs(4.0f * depth(x, y) - at(x - 1, y) - at(x + 1, y) - at(x, y - 1) - at(x, y + 1));
+      const float centre = depth(x, y);
+      if (!(centre > 0.0f)) continue;
+      // A neighbour that is a dropout reads the pixel's own depth: no edge.
+      auto neighbour = [&](int nx, int ny) {
+        const float v = at(nx, ny);
+        return v > 0.0f || !dropout(nx, ny) ? v : centre;
+      };
+      const float l = std::abs(4.0f * centre - neighbour(x - 1, y) - neighbour(x + 1, y) -
+                               neighbour(x, y - 1) - neighbour(x, y + 1));
       laplacian(x, y) = l;
       values.push_back(l);
     }

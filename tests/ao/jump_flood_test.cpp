@@ -100,6 +100,34 @@ TEST(BorderDistance, ADepthStepAndTheMapsEdgeAreTheBorders) {
   EXPECT_FLOAT_EQ(d(120, 10), 10.0f);  // the top ring is nearest
 }
 
+TEST(BorderDistance, DropoutsAreNoBordersButWiderHolesAre) {
+  // A plane at 1.5 m with holes: a single missing pixel, a 3-pixel gap in a row and a 2 x 2 hole
+  // (each of their pixels has points within 2 pixels on both sides along its row or column:
+  // dropouts, read as the surface around them), and a 4 x 4 hole (a coverage border: the 16
+  // points beside it are edges, as is the map's outer ring). With every hole taken for a border,
+  // the first three would add 4 + 8 + 8 edge pixels.
+  const int w = 160, h = 120;
+  const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
+  Image<float> depth(w, h, 1.5f);
+  depth(40, 30) = 0.0f;
+  for (int x = 60; x <= 62; ++x) depth(x, 30) = 0.0f;
+  for (int y = 30; y <= 31; ++y)
+    for (int x = 100; x <= 101; ++x) depth(x, y) = 0.0f;
+  for (int y = 80; y <= 83; ++y)
+    for (int x = 40; x <= 43; ++x) depth(x, y) = 0.0f;
+  RangeMap map;
+  range_map_from_depth(depth, k, map);
+  Image<float> d;
+  const BorderStats stats = border_distance(map, 0.01f, d);
+  EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2) + 16);
+  EXPECT_FLOAT_EQ(d(41, 30), 30.0f);   // beside the single dropout: the top ring is nearest
+  EXPECT_FLOAT_EQ(d(101, 29), 29.0f);  // above the 2 x 2 hole
+  EXPECT_FLOAT_EQ(d(39, 81), 0.0f);    // beside the 4 x 4 hole
+  EXPECT_FLOAT_EQ(d(44, 82), 0.0f);
+  EXPECT_FLOAT_EQ(d(41, 79), 0.0f);
+  EXPECT_FLOAT_EQ(d(41, 86), 2.0f);  // two rows below the point beside the hole
+}
+
 /// A 160 x 120 pinhole map of fronto-parallel planes at `left_m` (columns 0-79) and `right_m`
 /// (columns 80-159) with Gaussian depth noise of `sigma_m` (seeded).
 constexpr int kNoisyWidth = 160, kNoisyHeight = 120;
