@@ -344,7 +344,9 @@ class Scratch {
       }
       inputs.push_back(j);
     }
-    key_ = {{"format", 1},
+    // The format: of the scratch files and of what they mean (2: scans carry their range noise,
+    // which the integration reads, and their border distance takes dropouts for no border).
+    key_ = {{"format", 2},
             {"scans", {{"inputs", inputs}, {"config", dump_config(options.config)}}},
             {"integration", {{"neighbourhood", options.neighbourhood}}}};
   }

@@ -43,7 +43,7 @@ struct ScanInfo {
       2 * sizeof(Eigen::Vector3f) + 2 * sizeof(float);
 };
 
-/// The ScanInfo of a computed scan (box, largest depth and points from its map).
+/// The ScanInfo of a computed scan (box, largest depth, points and noise from its map).
 ScanInfo describe_scan(const ScanAo& scan, std::string source, long long skipped);
 
 /// Writes `scan` with its description to `path` (atomically): a header, then for every pixel with

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "support/cli_util.h"
 #include "support/scratch_dir.h"
@@ -131,6 +132,23 @@ TEST_F(ScansOutOfCore, ResumingWithOtherSettingsIsRefusedOrRedoesOnlyTheIntegrat
       << other.err;
   EXPECT_EQ(testing::count(other.err, "\n"), 1u) << other.err;
   EXPECT_TRUE(fs::exists(dir_.file("out/scratch/run.json")));  // the earlier run is kept
+
+  // A scratch folder of an earlier format (its scans without their range noise) is refused too.
+  const std::string run_json = dir_.file("out/scratch/run.json");
+  nlohmann::json run;
+  {
+    std::ifstream in(run_json);
+    run = nlohmann::json::parse(in);
+  }
+  const nlohmann::json current = run;
+  run["format"] = 1;
+  std::ofstream(run_json) << run.dump(2) << "\n";
+  const testing::CliRun earlier = scans("out", "--resume");
+  EXPECT_EQ(earlier.exit_code, 2) << earlier.err;
+  EXPECT_NE(earlier.err.find("holds a run with other inputs or settings; run without --resume"),
+            std::string::npos)
+      << earlier.err;
+  std::ofstream(run_json) << current.dump(2) << "\n";
 
   // Another neighbourhood reuses every scan and integrates them all again.
   const testing::CliRun n5 = run_aoscan("scans " + quote(rec()) +
