@@ -23,6 +23,10 @@ enum class AoEstimator { kPaper, kObscurance, kAlchemy, kHorizon, kHeightfield, 
 /// al. 2013's b * w_d + (1 - b) * w_n (Eq. 3-5, w_d from the mean distance of the pixel's SSAO
 /// samples to it: views whose samples land on other surfaces count less).
 enum class AoViewWeight { kPaper, kVardis };
+/// How the views read the MVAO grid at a pixel (contract key ao.view_read): the cell holding the
+/// pixel's surface point, or trilinear between the grid's coarse cells of 4^3 cells (its bricks),
+/// as the mesh export reads it by default (mesh_cell_factor 4).
+enum class AoViewRead { kCells, kCoarse };
 
 /// Screen-space AO and the multi-view AO grid (Sabbadin et al. 2016 Sec. 4 and 6).
 struct AoConfig {
@@ -68,6 +72,12 @@ struct AoConfig {
   /// noisy corner's mesh AO correlates clearly better than with 1 (and a little better than with
   /// 3); see BENCHMARKS.md.
   int mesh_cell_factor = 4;
+  /// What the views (window, snapshots, service) show of the grid at each pixel: the AO of the
+  /// cell holding its surface point, or (coarse) the grid read as the export reads it, trilinear
+  /// between the means of its 4^3-cell bricks (3.1 cm with the default grid). Coarse: the AO shown
+  /// at each frame of the noisy corner and room correlates better with the ray-traced reference,
+  /// most at the start of a take, when a cell holds one or two views; see BENCHMARKS.md.
+  AoViewRead view_read = AoViewRead::kCoarse;
   /// SSAO takes at each evaluated pixel the normalised sum of the raycast normals within
   /// normal_radius_px pixels whose vertices lie within normal_max_distance_m of the pixel's own
   /// (the same surface, not the one behind a depth jump); 0 = the raycast's own normal. The
@@ -148,6 +158,10 @@ struct AoConfig {
     v.integer("mesh_cell_factor", mesh_cell_factor,
               "mesh AO reads the grid through cells of factor^3 grid cells (1 = the grid's cells)",
               1, 64);
+    v.choice("view_read", view_read,
+             "views read the grid per cell (cells) or trilinear between its 4^3-cell bricks "
+             "(coarse, as the mesh export with mesh_cell_factor 4)",
+             {{"cells", AoViewRead::kCells}, {"coarse", AoViewRead::kCoarse}});
     v.integer("normal_radius_px", normal_radius_px,
               "SSAO normal (evaluated pixels and samples): sum of the raycast normals within this "
               "many pixels (0 = the pixel's own)",

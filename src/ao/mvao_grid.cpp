@@ -29,6 +29,36 @@ inline bool to_cell_fast(double v, std::int32_t& cell) {
   return true;
 }
 
+/// Trilinear AO at `g` (cell units less half a cell: the 8 cell centres around it are the corners
+/// of the unit cube at floor(g)), renormalised over the corners that corner_ao(base, corner,
+/// coordinates, ao) finds observed; nullopt when g is not finite or outside the Morton range, or
+/// no corner with a non-zero weight is observed. sample() and lookup_ao_coarse() share it, so the
+/// coarse read equals coarsened(kBrickSide).sample() bit for bit.
+template <class CornerAo>
+std::optional<float> trilinear_ao(const Eigen::Vector3d& g, CornerAo&& corner_ao) {
+  if (!g.allFinite()) return std::nullopt;
+  const Eigen::Vector3d base = g.array().floor();
+  if ((base.array() < kMortonMin).any() || (base.array() > kMortonMax).any()) return std::nullopt;
+  const Eigen::Vector3d f = g - base;
+  double sum = 0.0, total = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
+    const double tw =
+        (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
+    if (!(tw > 0.0)) continue;
+    const std::int64_t c[3] = {static_cast<std::int64_t>(base.x()) + dx,
+                               static_cast<std::int64_t>(base.y()) + dy,
+                               static_cast<std::int64_t>(base.z()) + dz};
+    if (c[0] > kMortonMax || c[1] > kMortonMax || c[2] > kMortonMax) continue;
+    float ao;
+    if (!corner_ao(base, corner, c, ao)) continue;
+    sum += tw * ao;
+    total += tw;
+  }
+  if (!(total > 0.0)) return std::nullopt;
+  return static_cast<float>(std::min(std::max(sum / total, 0.0), 1.0));
+}
+
 }  // namespace
 
 MvaoGrid::MvaoGrid(const AoConfig& config)
@@ -59,6 +89,7 @@ MvaoGrid MvaoGrid::coarsened(int factor) const {
     // The coarse grid has at most as many bricks as this one, so make_brick() succeeds.
     const std::int64_t b = out.make_brick(*code >> kBrickBits);
     if (b < 0) return;
+    out.mark_dirty(static_cast<std::uint32_t>(b));
     MvaoCell& cell = out.brick(static_cast<std::uint32_t>(b)).cells[*code & (kBrickCells - 1)];
     if (cell.last_frame == 0) ++out.size_;
     cell.ao_weight_sum += fine.ao_weight_sum;
@@ -74,6 +105,12 @@ void MvaoGrid::clear() {
   chunks_.shrink_to_fit();
   brick_codes_.clear();
   brick_codes_.shrink_to_fit();
+  brick_sums_.clear();
+  brick_sums_.shrink_to_fit();
+  brick_dirty_.clear();
+  brick_dirty_.shrink_to_fit();
+  dirty_bricks_.clear();
+  dirty_bricks_.shrink_to_fit();
   size_ = 0;
   frames_ = 0;
   points_integrated_ = points_out_of_range_ = points_invalid_ = 0;
@@ -81,7 +118,9 @@ void MvaoGrid::clear() {
 
 std::size_t MvaoGrid::memory_bytes() const {
   return index_.memory_bytes() + chunks_.size() * (kChunkMask + 1) * sizeof(Brick) +
-         chunks_.capacity() * sizeof(chunks_[0]) + brick_codes_.capacity() * sizeof(std::uint64_t);
+         chunks_.capacity() * sizeof(chunks_[0]) + brick_codes_.capacity() * sizeof(std::uint64_t) +
+         brick_sums_.capacity() * sizeof(BrickSum) + brick_dirty_.capacity() +
+         dirty_bricks_.capacity() * sizeof(std::uint32_t);
 }
 
 bool MvaoGrid::restore_cell(const CellIndex& cell, const MvaoCell& value) {
@@ -89,6 +128,7 @@ bool MvaoGrid::restore_cell(const CellIndex& cell, const MvaoCell& value) {
   if (!code || value.last_frame == 0) return false;
   const std::int64_t b = make_brick(*code >> kBrickBits);
   if (b < 0) return false;
+  mark_dirty(static_cast<std::uint32_t>(b));
   MvaoCell& c = brick(static_cast<std::uint32_t>(b)).cells[*code & (kBrickCells - 1)];
   if (c.last_frame == 0) ++size_;
   c = value;
@@ -102,6 +142,8 @@ std::int64_t MvaoGrid::make_brick(std::uint64_t brick_code) {
   if (b >= kMaxBricks) return -1;
   if ((b & kChunkMask) == 0) chunks_.push_back(std::make_unique<Brick[]>(kChunkMask + 1));
   brick_codes_.push_back(brick_code);
+  brick_sums_.emplace_back();
+  brick_dirty_.push_back(0);
   index_.insert(brick_code, static_cast<int>(b));
   return b;
 }
@@ -189,6 +231,7 @@ Status MvaoGrid::integrate(const Image<float>& ao, const Image<float>& weights,
       if ((codes[k] >> kBrickBits) != brick_code) {
         brick_code = codes[k] >> kBrickBits;
         brick_number = make_brick(brick_code);
+        if (brick_number >= 0) mark_dirty(static_cast<std::uint32_t>(brick_number));
       }
       batch_cell[k] = nullptr;
       if (brick_number < 0) continue;
@@ -291,29 +334,79 @@ Eigen::Vector3d MvaoGrid::cell_centre(const CellIndex& c) const {
 }
 
 std::optional<float> MvaoGrid::sample(const Eigen::Vector3d& p_world) const {
-  const Eigen::Vector3d g = p_world * inv_cell_size_ - Eigen::Vector3d::Constant(0.5);
-  if (!g.allFinite()) return std::nullopt;
-  const Eigen::Vector3d base = g.array().floor();
-  if ((base.array() < kMortonMin).any() || (base.array() > kMortonMax).any()) return std::nullopt;
-  const Eigen::Vector3d f = g - base;
-  double sum = 0.0, total = 0.0;
-  for (int corner = 0; corner < 8; ++corner) {
-    const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-    const double tw =
-        (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
-    if (!(tw > 0.0)) continue;
-    const std::int64_t cx = static_cast<std::int64_t>(base.x()) + dx;
-    const std::int64_t cy = static_cast<std::int64_t>(base.y()) + dy;
-    const std::int64_t cz = static_cast<std::int64_t>(base.z()) + dz;
-    if (cx > kMortonMax || cy > kMortonMax || cz > kMortonMax) continue;
-    const MvaoCell* c = find({static_cast<std::int32_t>(cx), static_cast<std::int32_t>(cy),
-                              static_cast<std::int32_t>(cz)});
-    if (!c) continue;
-    sum += tw * c->ao();
-    total += tw;
+  return trilinear_ao(p_world * inv_cell_size_ - Eigen::Vector3d::Constant(0.5),
+                      [&](const Eigen::Vector3d&, int, const std::int64_t* c, float& ao) {
+                        const MvaoCell* cell =
+                            find({static_cast<std::int32_t>(c[0]), static_cast<std::int32_t>(c[1]),
+                                  static_cast<std::int32_t>(c[2])});
+                        if (cell == nullptr) return false;
+                        ao = cell->ao();
+                        return true;
+                      });
+}
+
+void MvaoGrid::refresh_brick_sums() {
+  for (const std::uint32_t b : dirty_bricks_) {
+    // The order of coarsened(): the brick's observed cells in Morton order, from zero.
+    BrickSum sum;
+    for (const MvaoCell& c : brick(b).cells) {
+      if (c.last_frame == 0) continue;
+      sum.ao_weight_sum += c.ao_weight_sum;
+      sum.weight_sum += c.weight_sum;
+    }
+    brick_sums_[b] = sum;
+    brick_dirty_[b] = 0;
   }
-  if (!(total > 0.0)) return std::nullopt;
-  return static_cast<float>(std::min(std::max(sum / total, 0.0), 1.0));
+  dirty_bricks_.clear();
+}
+
+void MvaoGrid::lookup_ao_coarse(const Eigen::Vector3f* vertices, std::size_t n,
+                                const Pose& T_world_camera, float* out) const {
+  const Eigen::Matrix3d& R = T_world_camera.rotation();
+  const Eigen::Vector3d& t = T_world_camera.translation();
+  // As coarsened(kBrickSide).sample(): the coarse grid's cell size and its reciprocal.
+  const double inv_coarse = 1.0 / (cell_size_m_ * kBrickSide);
+  // Neighbouring pixels mostly share the 8 coarse cells around them: their AO is kept until the
+  // base cell changes. known: bit per corner looked up, observed: bit per corner found.
+  Eigen::Vector3d cached_base = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  unsigned known = 0, observed = 0;
+  float cached_ao[8];
+  const auto corner_ao = [&](const Eigen::Vector3d& base, int corner, const std::int64_t* c,
+                             float& ao) {
+    if (base != cached_base) {
+      cached_base = base;
+      known = observed = 0;
+    }
+    const unsigned bit = 1u << corner;
+    if (!(known & bit)) {
+      known |= bit;
+      // Coarse cell c holds the fine cells kBrickSide * c + [0, kBrickSide) per axis: one brick.
+      const std::int64_t x = c[0] * kBrickSide, y = c[1] * kBrickSide, z = c[2] * kBrickSide;
+      const auto code =
+          x >= kMortonMin && x <= kMortonMax && y >= kMortonMin && y <= kMortonMax &&
+                  z >= kMortonMin && z <= kMortonMax
+              ? morton_encode(static_cast<std::int32_t>(x), static_cast<std::int32_t>(y),
+                              static_cast<std::int32_t>(z))
+              : std::nullopt;
+      const int b = code ? index_.find(*code >> kBrickBits) : -1;
+      if (b >= 0 && brick_sums_[static_cast<std::size_t>(b)].weight_sum > 0.0f) {
+        const BrickSum& sum = brick_sums_[static_cast<std::size_t>(b)];
+        cached_ao[corner] = sum.ao_weight_sum / sum.weight_sum;
+        observed |= bit;
+      }
+    }
+    if (!(observed & bit)) return false;
+    ao = cached_ao[corner];
+    return true;
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& v = vertices[i];
+    std::optional<float> ao;
+    if (!v.isZero())
+      ao = trilinear_ao((R * v.cast<double>() + t) * inv_coarse - Eigen::Vector3d::Constant(0.5),
+                        corner_ao);
+    out[i] = ao ? *ao : std::numeric_limits<float>::quiet_NaN();
+  }
 }
 
 std::optional<float> MvaoGrid::nearest_observed(const Eigen::Vector3d& p_world,

@@ -106,6 +106,23 @@ class MvaoGrid {
   /// to the cell met first in z, y, x order.
   std::optional<float> nearest_observed(const Eigen::Vector3d& p_world, int max_cells) const;
 
+  /// Side of a brick in cells: the grid keeps the sums of each brick's cells, which are the cells
+  /// of coarsened(kBrickSide), for lookup_ao_coarse().
+  static constexpr int kBrickSide = 4;
+  /// Brings the brick sums up to date with the cells (only the bricks changed since the last
+  /// call: integrate(), restore_cell()). Call it on the writer's thread before
+  /// lookup_ao_coarse().
+  void refresh_brick_sums();
+  /// lookup_ao() through the coarse cells of the bricks: out[i] = coarsened(kBrickSide).sample()
+  /// at T_world_camera * vertices[i], bit for bit (trilinear between the bricks' mean AO,
+  /// renormalised over the observed ones), NaN where the vertex is zero or no brick around it is
+  /// observed; without building the coarse grid. The brick sums must be fresh
+  /// (refresh_brick_sums()).
+  void lookup_ao_coarse(const Eigen::Vector3f* vertices, std::size_t n, const Pose& T_world_camera,
+                        float* out) const;
+  /// Bricks changed since the last refresh_brick_sums().
+  std::size_t stale_bricks() const { return dirty_bricks_.size(); }
+
   /// A grid of cells factor^3 times larger (cell size * factor, same mode): each of its cells holds
   /// the sums of the observed cells inside it (cell i of this grid goes to floor(i / factor)), so
   /// its AO is their weighted mean. factor < 1 is taken as 1.
@@ -139,6 +156,8 @@ class MvaoGrid {
  private:
   /// Morton code bits inside a brick, and its cells.
   static constexpr int kBrickBits = 6;
+  static_assert(kBrickSide * kBrickSide * kBrickSide == 1 << kBrickBits,
+                "a brick is kBrickSide^3 cells: the Morton code's low two bits per axis");
   static constexpr std::uint32_t kBrickCells = std::uint32_t{1} << kBrickBits;
   /// Bricks per pool chunk (192 KiB).
   static constexpr int kChunkBits = 8;
@@ -150,6 +169,16 @@ class MvaoGrid {
   MvaoGrid(double cell_size_m, AoIntegration mode);
   const Brick& brick(std::uint32_t b) const { return chunks_[b >> kChunkBits][b & kChunkMask]; }
   Brick& brick(std::uint32_t b) { return chunks_[b >> kChunkBits][b & kChunkMask]; }
+  /// The sums of a brick's observed cells (the coarse cell it forms).
+  struct BrickSum {
+    float ao_weight_sum = 0.0f;
+    float weight_sum = 0.0f;
+  };
+  void mark_dirty(std::uint32_t b) {
+    if (brick_dirty_[b]) return;
+    brick_dirty_[b] = 1;
+    dirty_bricks_.push_back(b);
+  }
   /// Number of the brick with this brick code (Morton code >> kBrickBits), made when needed; -1
   /// when the grid holds kMaxBricks already.
   std::int64_t make_brick(std::uint64_t brick_code);
@@ -162,6 +191,9 @@ class MvaoGrid {
   BlockHashMap index_;                            ///< brick code -> brick number
   std::vector<std::unique_ptr<Brick[]>> chunks_;  ///< the brick pool
   std::vector<std::uint64_t> brick_codes_;        ///< per brick number: its brick code
+  std::vector<BrickSum> brick_sums_;              ///< per brick number: its sums, when not dirty
+  std::vector<std::uint8_t> brick_dirty_;         ///< per brick number: changed since refresh
+  std::vector<std::uint32_t> dirty_bricks_;       ///< the bricks with brick_dirty_ set
   std::size_t size_ = 0;                          ///< observed cells
   std::uint64_t frames_ = 0;
   std::uint64_t points_integrated_ = 0;

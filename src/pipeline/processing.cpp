@@ -228,13 +228,13 @@ Status Processing::mvao(FrameWork& frame) {
   if (view_weight > 0.0f) {
     const bool raw = config_.ao.input == AoInput::kRaw;
     const PointMaps& maps = raw ? frame.raw_maps : frame.raycast->maps;
-    have_slots = frame.view_products && !raw;
+    have_slots = frame.view_products && !raw && config_.ao.view_read == AoViewRead::kCells;
     status = grid_.integrate(frame.ssao, frame.ssao_weight, maps, frame.fusion.T_world_camera,
                              have_slots ? &view_slots_ : nullptr, view_weight);
   }
   if (frame.view_products && frame.raycast)
-    mvao_image(grid_, frame.raycast->maps, frame.fusion.T_world_camera, frame.mvao,
-               have_slots && status.is_ok() ? &view_slots_ : nullptr);
+    mvao_image(grid_, config_.ao.view_read, frame.raycast->maps, frame.fusion.T_world_camera,
+               frame.mvao, have_slots && status.is_ok() ? &view_slots_ : nullptr);
   else
     frame.mvao.resize(0, 0);
   if (frame.export_mesh) write_requested_outputs(frame);

@@ -55,6 +55,23 @@ void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world
       });
 }
 
+void mvao_image(MvaoGrid& grid, AoViewRead read, const PointMaps& maps, const Pose& T_world_camera,
+                Image<float>& out, const Image<std::uint32_t>* slots) {
+  if (read == AoViewRead::kCells) {
+    mvao_image(grid, maps, T_world_camera, out, slots);
+    return;
+  }
+  grid.refresh_brick_sums();
+  const int w = maps.vertices.width();
+  out.resize(w, maps.vertices.height());
+  tbb::parallel_for(tbb::blocked_range<int>(0, out.height()),
+                    [&](const tbb::blocked_range<int>& r) {
+                      for (int y = r.begin(); y < r.end(); ++y)
+                        grid.lookup_ao_coarse(maps.vertices.row(y), static_cast<std::size_t>(w),
+                                              T_world_camera, out.row(y));
+                    });
+}
+
 SurfaceCloud::SurfaceCloud(SurfaceCloudOptions options) : options_(options) {
   if (options_.pixel_step < 1) options_.pixel_step = 1;
 }

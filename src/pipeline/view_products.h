@@ -28,6 +28,12 @@ namespace aoscan {
 void mvao_image(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
                 Image<float>& out, const Image<std::uint32_t>* slots = nullptr);
 
+/// The view's MVAO image as `read` says (ao.view_read): mvao_image() (cells, through `slots`
+/// when given) or, coarse, MvaoGrid::lookup_ao_coarse() of every pixel (the grid's brick sums
+/// brought up to date first, which makes this a writer's call), parallel over rows.
+void mvao_image(MvaoGrid& grid, AoViewRead read, const PointMaps& maps, const Pose& T_world_camera,
+                Image<float>& out, const Image<std::uint32_t>* slots = nullptr);
+
 struct SurfaceCloudOptions {
   double voxel_m = kSurfaceCloudSpacingM;  ///< one point per voxel of this side (metres)
   int pixel_step = 4;               ///< sample every pixel_step-th pixel in x and y

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -303,6 +304,85 @@ TEST(MvaoGrid, CoarsenedCellsHoldTheWeightedMeanOfTheirCells) {
   const MvaoGrid same = grid.coarsened(0);
   EXPECT_EQ(same.cell_count(), grid.cell_count());
   EXPECT_FLOAT_EQ(*same.cell_ao({1, 1, 1}), 1.0f);
+}
+
+TEST(MvaoGrid, CoarseLookupInterpolatesTheBricksMeans) {
+  // Cells of 0.25 m: bricks of 1 m, their centres at 0.5 + integer. Brick (0,0,0) holds cells of
+  // AO 0.2 (weight 1) and 0.6 (weight 3): mean 0.5; brick (1,0,0) one cell of AO 0.9.
+  MvaoGrid grid(grid_config(AoIntegration::kMvao));
+  const Frame f({kA, kC, {1.6f, 0.1f, 0.7f}}, {0.2f, 0.6f, 0.9f}, {1.0f, 3.0f, 2.0f});
+  ASSERT_TRUE(grid.integrate(f.ao, f.w, f.maps, Pose::identity()).is_ok());
+  EXPECT_EQ(grid.stale_bricks(), 2u);
+  grid.refresh_brick_sums();
+  EXPECT_EQ(grid.stale_bricks(), 0u);
+  const std::vector<Eigen::Vector3f> at = {
+      {0.5f, 0.5f, 0.5f},   // brick (0,0,0)'s centre
+      {1.0f, 0.5f, 0.5f},   // half way: (0.5 + 0.9) / 2
+      {1.25f, 0.3f, 0.6f},  // a quarter from brick (1,0,0): only x matters, y/z neighbours unseen
+      {0.0f, 0.0f, 0.0f},   // no surface
+      {5.0f, 5.0f, 5.0f}};  // nothing observed around
+  float out[5];
+  grid.lookup_ao_coarse(at.data(), at.size(), Pose::identity(), out);
+  EXPECT_FLOAT_EQ(out[0], 0.5f);
+  EXPECT_FLOAT_EQ(out[1], 0.7f);
+  EXPECT_FLOAT_EQ(out[2], 0.25f * 0.5f + 0.75f * 0.9f);
+  EXPECT_TRUE(std::isnan(out[3]));
+  EXPECT_TRUE(std::isnan(out[4]));
+}
+
+TEST(MvaoGrid, CoarseLookupEqualsTheCoarsenedGridsSampleInEveryMode) {
+  // Frames of random points over a few bricks (negative coordinates too, runs of pixels in one
+  // brick, a rotated pose), a restored cell between them: after refresh_brick_sums() the coarse
+  // read is coarsened(kBrickSide).sample() bit for bit, also after `last` reset cells.
+  for (const AoIntegration mode :
+       {AoIntegration::kMvao, AoIntegration::kMean, AoIntegration::kLast}) {
+    AoConfig config = grid_config(mode);
+    config.grid_resolution = 64;  // cells of 1/64 m, bricks of 1/16 m
+    MvaoGrid grid(config);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> coord(-0.2f, 0.2f), unit(0.0f, 1.0f);
+    const Pose T(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).matrix(),
+                 Eigen::Vector3d(0.01, -0.02, 0.03));
+    std::vector<Eigen::Vector3f> queries;
+    for (int frame = 0; frame < 6; ++frame) {
+      std::vector<Eigen::Vector3f> points;
+      std::vector<float> ao, w;
+      for (int i = 0; i < 400; ++i) {
+        points.push_back(i % 3 == 1 ? points.back()
+                                    : Eigen::Vector3f(coord(rng), coord(rng), coord(rng)));
+        ao.push_back(unit(rng));
+        w.push_back(unit(rng) < 0.2f ? 0.0f : unit(rng));
+      }
+      const Frame f(points, ao, w);
+      ASSERT_TRUE(grid.integrate(f.ao, f.w, f.maps, T).is_ok());
+      if (frame == 2) ASSERT_TRUE(grid.restore_cell({-20, 3, 7}, {0.3f, 0.5f, 3}));
+      if (frame % 2 == 0) continue;
+      grid.refresh_brick_sums();
+      const MvaoGrid coarse = grid.coarsened(MvaoGrid::kBrickSide);
+      queries.clear();
+      for (int i = 0; i < 2000; ++i)
+        queries.push_back(
+            i % 4 == 3
+                ? Eigen::Vector3f(Eigen::Vector3f::Zero())
+                : Eigen::Vector3f(Eigen::Vector3f(coord(rng), coord(rng), coord(rng)) * 1.3f));
+      std::vector<float> out(queries.size());
+      grid.lookup_ao_coarse(queries.data(), queries.size(), T, out.data());
+      int found = 0;
+      for (std::size_t i = 0; i < queries.size(); ++i) {
+        const std::optional<float> expected =
+            queries[i].isZero()
+                ? std::nullopt
+                : coarse.sample(T.rotation() * queries[i].cast<double>() + T.translation());
+        if (expected) {
+          ++found;
+          EXPECT_EQ(out[i], *expected) << i;
+        } else {
+          EXPECT_TRUE(std::isnan(out[i])) << i;
+        }
+      }
+      EXPECT_GT(found, 1000);
+    }
+  }
 }
 
 TEST(MvaoGrid, RejectsADegenerateCellSize) {

@@ -129,6 +129,56 @@ TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   EXPECT_TRUE(std::isnan(fast(10, 46)));  // unobserved cell
 }
 
+TEST(MvaoImage, CoarseReadEqualsTheCoarsenedGridSampledPixelByPixel) {
+  // Two frames of a wall under two poses, AO varying along x: the coarse image (brick sums
+  // refreshed by the call, rows in parallel) is the serial reference's bit for bit, also after a
+  // third frame changed some bricks; ao.view_read cells gives the per-cell image.
+  AoConfig config;
+  MvaoGrid grid(config);
+  const int width = 100, height = 48;
+  const PointMaps maps = wall_maps(width, height, 1.0f);
+  Image<float> ao(width, height), weight(width, height, 1.0f);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) ao(x, y) = 0.2f + 0.6f * static_cast<float>(x) / width;
+  const Pose first(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+                   Eigen::Vector3d(-0.7, 0.2, 1.3));
+  const Pose second(
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d(0, 1, 0)).toRotationMatrix() * first.rotation(),
+      first.translation() + Eigen::Vector3d(0.05, 0.0, 0.02));
+  ASSERT_TRUE(grid.integrate(ao, weight, maps, first).is_ok());
+  ASSERT_TRUE(grid.integrate(ao, weight, maps, second).is_ok());
+  PointMaps seen = maps;
+  seen.vertices(5, 5).setZero();  // no surface
+  for (int round = 0; round < 2; ++round) {
+    Image<float> coarse, reference;
+    mvao_image(grid, AoViewRead::kCoarse, seen, second, coarse);
+    EXPECT_EQ(grid.stale_bricks(), 0u);
+    test::mvao_image_coarse_reference(grid, seen, second, reference);
+    int shown = 0;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        const float f = coarse(x, y), r = reference(x, y);
+        EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
+        shown += std::isnan(f) ? 0 : 1;
+      }
+    EXPECT_EQ(shown, width * height - 1);
+    EXPECT_TRUE(std::isnan(coarse(5, 5)));
+    // A third view brightens the left half.
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width / 2; ++x) ao(x, y) = 1.0f;
+    ASSERT_TRUE(grid.integrate(ao, weight, maps, first).is_ok());
+    EXPECT_GT(grid.stale_bricks(), 0u);
+  }
+  Image<float> cells, cells_reference;
+  mvao_image(grid, AoViewRead::kCells, seen, second, cells);
+  test::mvao_image_reference(grid, seen, second, cells_reference);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float f = cells(x, y), r = cells_reference(x, y);
+      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
+    }
+}
+
 TEST(SurfaceCloud, OnePointPerVoxelWithTheNewestObservedAo) {
   SurfaceCloudOptions options;
   options.voxel_m = 0.05;

@@ -15,4 +15,10 @@ namespace aoscan::test {
 void mvao_image_reference(const MvaoGrid& grid, const PointMaps& maps, const Pose& T_world_camera,
                           Image<float>& out);
 
+/// The plain serial version of the coarse mvao_image (ao.view_read coarse): the grid coarsened by
+/// MvaoGrid::kBrickSide, sampled trilinearly at each pixel's world point; NaN where the pixel has
+/// no surface or no coarse cell around its point is observed.
+void mvao_image_coarse_reference(const MvaoGrid& grid, const PointMaps& maps,
+                                 const Pose& T_world_camera, Image<float>& out);
+
 }  // namespace aoscan::test

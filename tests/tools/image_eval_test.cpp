@@ -324,10 +324,11 @@ TEST(ImageEval, TemporalStabilityWithAFinalGridReadsItAtEachPointAndSplitsOcclud
   ASSERT_TRUE(grid.restore_cell({-2, 0, 5}, {0.7f, 1.0f, 1}));  // x in [-1, -0.5), z in [2.5, 3)
   ASSERT_TRUE(grid.restore_cell({3, 0, 4}, {0.95f, 1.0f, 1}));
   ASSERT_TRUE(grid.restore_cell({3, 0, 5}, {0.95f, 1.0f, 1}));
+  const FinalGrid final_grid(grid);
   TemporalStability s(1.0);
   const Image<float> ssao(2, 1, 0.5f), mvao(2, 1, 0.6f);
-  s.add(k, Pose(), Image<float>(2, 1, 2.0f), ssao, mvao, &grid);
-  s.add(k, Pose(), Image<float>(2, 1, 2.6f), ssao, mvao, &grid);
+  s.add(k, Pose(), Image<float>(2, 1, 2.0f), ssao, mvao, &final_grid);
+  s.add(k, Pose(), Image<float>(2, 1, 2.6f), ssao, mvao, &final_grid);
   // Spread cell (-1, 0, 2) saw 0.5 then 0.7: spread 0.1; cell (1, 0, 2) saw 0.95 twice. SSAO and
   // MVAO did not change.
   const TemporalStability::Result r = s.result(2);
@@ -345,7 +346,7 @@ TEST(ImageEval, TemporalStabilityWithAFinalGridReadsItAtEachPointAndSplitsOcclud
   EXPECT_EQ(s.final_differences()[1].share_differing, 1.0);
   // A pixel whose point has no observed cell in the final grid is left out altogether.
   TemporalStability t(1.0);
-  t.add(k, Pose(), Image<float>(2, 1, 3.5f), ssao, mvao, &grid);
+  t.add(k, Pose(), Image<float>(2, 1, 3.5f), ssao, mvao, &final_grid);
   EXPECT_EQ(t.result(1).all.cells, 0u);
 }
 

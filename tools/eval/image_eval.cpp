@@ -242,7 +242,17 @@ std::array<double, kRegionCount> cell_constant_ceiling(const std::vector<CellSam
   return r;
 }
 
-void evaluate_frame(const AnalyticScene& scene, const MvaoGrid& final_grid,
+FinalGrid::FinalGrid(const MvaoGrid& grid, AoViewRead read) : grid_(&grid) {
+  if (read == AoViewRead::kCoarse) coarse_.emplace(grid.coarsened(MvaoGrid::kBrickSide));
+}
+
+std::optional<float> FinalGrid::ao(const Eigen::Vector3d& p_world) const {
+  if (coarse_) return coarse_->sample(p_world);
+  const std::optional<CellIndex> cell = grid_->cell_of(p_world);
+  return cell ? grid_->cell_ao(*cell) : std::nullopt;
+}
+
+void evaluate_frame(const AnalyticScene& scene, const FinalGrid& final_grid,
                     const ImageEvalFrame& frame, const ImageEvalOptions& options,
                     RegionCorrelation& out, ImageEvalCounts& counts,
                     std::vector<CellSample>* cells) {
@@ -283,8 +293,9 @@ void evaluate_frame(const AnalyticScene& scene, const MvaoGrid& final_grid,
       s.p = frame.T_scene_camera.translation() + hit.t * d;
       s.normal = hit.normal;
       s.primitive = hit.primitive;
-      const std::optional<CellIndex> cell = final_grid.cell_of(T_world_scene * s.p);
-      const std::optional<float> final_ao = cell ? final_grid.cell_ao(*cell) : std::nullopt;
+      const std::optional<CellIndex> cell = final_grid.cells().cell_of(T_world_scene * s.p);
+      const std::optional<float> final_ao =
+          cell ? final_grid.ao(T_world_scene * s.p) : std::nullopt;
       if (!final_ao) {
         ++counts.no_final;
         continue;
@@ -304,7 +315,7 @@ TemporalStability::TemporalStability(double cell_m) : cell_m_(cell_m) {
 
 void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
                             const Image<float>& depth_m, const Image<float>& ssao,
-                            const Image<float>& mvao, const MvaoGrid* final_grid) {
+                            const Image<float>& mvao, const FinalGrid* final_grid) {
   if (mvao.width() != ssao.width() || mvao.height() != ssao.height() ||
       ssao.width() != k.width || ssao.height() != k.height)
     throw input_error("the snapshot views differ in size from the camera");
@@ -328,8 +339,7 @@ void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
       const Eigen::Vector3d p = T_world_camera * kd.unproject(double(x), double(y), double(z));
       std::optional<float> final_ao = 0.0f;
       if (final_grid) {
-        const auto cell = final_grid->cell_of(p);
-        final_ao = cell ? final_grid->cell_ao(*cell) : std::nullopt;
+        final_ao = final_grid->ao(p);
         if (!final_ao) continue;
         const double d = std::abs(static_cast<double>(m) - *final_ao);
         ++difference.pixels;
@@ -429,7 +439,7 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
                                    const RecordingFrames& recording,
                                    const std::vector<StampedPose>& estimate,
                                    const Pose& T_scene_world, const AnalyticScene& scene,
-                                   const MvaoGrid& final_grid, const ImageEvalOptions& options) {
+                                   const FinalGrid& final_grid, const ImageEvalOptions& options) {
   ImageEvalReport report;
   std::vector<CellSample> cells;
   for (const std::uint64_t sequence : snapshot_frames(snapshot_dir)) {
@@ -461,7 +471,7 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
 TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                                          const RecordingFrames& recording,
                                          const std::vector<StampedPose>& estimate, double cell_m,
-                                         const MvaoGrid* final_grid, bool raycast_points) {
+                                         const FinalGrid* final_grid, bool raycast_points) {
   TemporalStability stability(cell_m);
   Image<std::uint16_t> raw;
   Image<float> depth_m;

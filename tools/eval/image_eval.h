@@ -82,6 +82,22 @@ class RegionCorrelation {
   std::array<std::array<std::vector<double>, kShownCount>, kRegionCount> shown_;
 };
 
+/// A run's final MVAO grid read at a world point as the views read it (ao.view_read): the AO of
+/// the observed cell holding the point, or, coarse, MvaoGrid::sample() of the grid coarsened by
+/// MvaoGrid::kBrickSide (what MvaoGrid::lookup_ao_coarse() gives the views, bit for bit).
+class FinalGrid {
+ public:
+  /// `grid` must outlive this.
+  FinalGrid(const MvaoGrid& grid, AoViewRead read = AoViewRead::kCells);
+  std::optional<float> ao(const Eigen::Vector3d& p_world) const;
+  /// The grid's own cells (the cell ceiling's).
+  const MvaoGrid& cells() const { return *grid_; }
+
+ private:
+  const MvaoGrid* grid_;
+  std::optional<MvaoGrid> coarse_;
+};
+
 struct ImageEvalOptions {
   int raycast_level = 1;  ///< the model raycast's pyramid level (fusion.raycast_level)
   int step = 2;           ///< evaluate every step-th raycast pixel along x and y
@@ -133,7 +149,7 @@ std::array<double, kRegionCount> cell_constant_ceiling(const std::vector<CellSam
 /// (s u, s v): border_mask() of the frame and discontinuity_mask() of the exact scene's depth
 /// through every frame pixel. Only pixels with all three values are compared; `cells` (optional)
 /// gets each compared pixel's CellSample.
-void evaluate_frame(const AnalyticScene& scene, const MvaoGrid& final_grid,
+void evaluate_frame(const AnalyticScene& scene, const FinalGrid& final_grid,
                     const ImageEvalFrame& frame, const ImageEvalOptions& options,
                     RegionCorrelation& out, ImageEvalCounts& counts,
                     std::vector<CellSample>* cells = nullptr);
@@ -159,7 +175,7 @@ class TemporalStability {
   /// final grid, in the world frame of the poses. Throws input_error for other sizes.
   void add(const Intrinsics& intrinsics, const Pose& T_world_camera, const Image<float>& depth_m,
            const Image<float>& ssao, const Image<float>& mvao,
-           const MvaoGrid* final_grid = nullptr);
+           const FinalGrid* final_grid = nullptr);
 
   /// Cells whose final-grid AO (mean over their frames) is below this are the occluded ones.
   static constexpr double kOccludedBelow = 0.9;
@@ -252,7 +268,7 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
                                    const RecordingFrames& recording,
                                    const std::vector<StampedPose>& estimate,
                                    const Pose& T_scene_world, const AnalyticScene& scene,
-                                   const MvaoGrid& final_grid, const ImageEvalOptions& options);
+                                   const FinalGrid& final_grid, const ImageEvalOptions& options);
 
 /// TemporalStability over every frame of `snapshot_dir` with an estimated pose, the surface points
 /// mapped by the estimated pose being those the views show, the model raycast's
@@ -262,7 +278,7 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
 TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                                          const RecordingFrames& recording,
                                          const std::vector<StampedPose>& estimate, double cell_m,
-                                         const MvaoGrid* final_grid = nullptr,
+                                         const FinalGrid* final_grid = nullptr,
                                          bool raycast_points = true);
 
 }  // namespace aoscan::eval

@@ -4,6 +4,7 @@
 /// stability).
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -113,6 +114,15 @@ int run(int argc, char** argv) {
                     "the replay's fusion.raycast_level (the views enlarge the raycast by 2^level)")
       ->check(CLI::Range(0, 2))->capture_default_str();
   image->add_option("--border", image_options.border_px, "border region width (px)")->capture_default_str();
+  // The final grid read as the replay's views read it (ao.view_read).
+  AoViewRead view_read = AoViewRead::kCoarse;
+  const std::map<std::string, AoViewRead> view_reads{{"cells", AoViewRead::kCells},
+                                                     {"coarse", AoViewRead::kCoarse}};
+  const char* view_read_help =
+      "how the final grid is read at a point, as the replay's ao.view_read: cells or coarse";
+  image->add_option("--view-read", view_read, view_read_help)
+      ->transform(CLI::CheckedTransformer(view_reads))
+      ->default_str("coarse");
   image->add_option("--discontinuity", image_options.discontinuity_px,
                     "discontinuity region: pixels within this distance of a depth jump (px)")
       ->capture_default_str();
@@ -138,6 +148,9 @@ int run(int argc, char** argv) {
                         "the replay's final MVAO grid (OUT/session/mvao.grid): also the spread of "
                         "its AO at the same pixels, and the occluded cells alone")
       ->check(CLI::ExistingFile);
+  stability->add_option("--view-read", view_read, view_read_help)
+      ->transform(CLI::CheckedTransformer(view_reads))
+      ->default_str("coarse");
   bool depth_points = false;
   stability->add_flag("--depth-points", depth_points,
                       "surface points from the recording's depth images even where the snapshots "
@@ -153,9 +166,14 @@ int run(int argc, char** argv) {
       const std::vector<StampedPose> estimate = read_trajectory(est_path);
       if (*stability) {
         std::optional<MvaoGrid> grid;
-        if (!grid_path.empty()) grid.emplace(grid_from_saved(read_grid(grid_path)));
-        const TemporalStability s = stability_of_snapshots(
-            snapshot_dir, recording, estimate, cell_m, grid ? &*grid : nullptr, !depth_points);
+        std::optional<FinalGrid> final_grid;
+        if (!grid_path.empty()) {
+          grid.emplace(grid_from_saved(read_grid(grid_path)));
+          final_grid.emplace(*grid, view_read);
+        }
+        const TemporalStability s =
+            stability_of_snapshots(snapshot_dir, recording, estimate, cell_m,
+                                   final_grid ? &*final_grid : nullptr, !depth_points);
         const TemporalStability::Result r = s.result(min_frames);
         nlohmann::json out;
         out["frames"] = s.frames();
@@ -212,9 +230,10 @@ int run(int argc, char** argv) {
       const std::string gt = (std::filesystem::path(recording_dir) / "groundtruth.txt").string();
       const AssociatedPoses poses = associate_poses(read_trajectory(gt), estimate, max_dt);
       if (poses.estimate.empty()) throw input_error(est_path + ": no pose matches a timestamp of " + gt);
+      const MvaoGrid grid = grid_from_saved(read_grid(grid_path));
       const ImageEvalReport report = evaluate_snapshots(
           snapshot_dir, recording, estimate, first_pose_alignment(poses),
-          AnalyticScene::make(scene_name), grid_from_saved(read_grid(grid_path)), image_options);
+          AnalyticScene::make(scene_name), FinalGrid(grid, view_read), image_options);
       nlohmann::json out;
       out["frames"] = report.frames;
       out["frames_untracked"] = report.frames_untracked;
