@@ -4,6 +4,7 @@
 #include "ao/mvao_grid.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -30,10 +31,10 @@ inline bool to_cell_fast(double v, std::int32_t& cell) {
 }
 
 /// Trilinear AO at `g` (cell units less half a cell: the 8 cell centres around it are the corners
-/// of the unit cube at floor(g)), renormalised over the corners that corner_ao(base, corner,
-/// coordinates, ao) finds observed; nullopt when g is not finite or outside the Morton range, or
-/// no corner with a non-zero weight is observed. sample() and lookup_ao_coarse() share it, so the
-/// coarse read equals coarsened(kBrickSide).sample() bit for bit.
+/// of the unit cube at floor(g)), renormalised over the corners whose AO corner_ao(coordinates,
+/// ao) finds; nullopt when g is not finite or outside the Morton range, or
+/// no corner with a non-zero weight is observed. sample()'s; lookup_ao_coarse() does the same
+/// arithmetic in its own loop (its test holds it to coarsened(kBrickSide).sample() bit for bit).
 template <class CornerAo>
 std::optional<float> trilinear_ao(const Eigen::Vector3d& g, CornerAo&& corner_ao) {
   if (!g.allFinite()) return std::nullopt;
@@ -51,7 +52,7 @@ std::optional<float> trilinear_ao(const Eigen::Vector3d& g, CornerAo&& corner_ao
                                static_cast<std::int64_t>(base.z()) + dz};
     if (c[0] > kMortonMax || c[1] > kMortonMax || c[2] > kMortonMax) continue;
     float ao;
-    if (!corner_ao(base, corner, c, ao)) continue;
+    if (!corner_ao(c, ao)) continue;
     sum += tw * ao;
     total += tw;
   }
@@ -335,7 +336,7 @@ Eigen::Vector3d MvaoGrid::cell_centre(const CellIndex& c) const {
 
 std::optional<float> MvaoGrid::sample(const Eigen::Vector3d& p_world) const {
   return trilinear_ao(p_world * inv_cell_size_ - Eigen::Vector3d::Constant(0.5),
-                      [&](const Eigen::Vector3d&, int, const std::int64_t* c, float& ao) {
+                      [&](const std::int64_t* c, float& ao) {
                         const MvaoCell* cell =
                             find({static_cast<std::int32_t>(c[0]), static_cast<std::int32_t>(c[1]),
                                   static_cast<std::int32_t>(c[2])});
@@ -366,46 +367,78 @@ void MvaoGrid::lookup_ao_coarse(const Eigen::Vector3f* vertices, std::size_t n,
   const Eigen::Vector3d& t = T_world_camera.translation();
   // As coarsened(kBrickSide).sample(): the coarse grid's cell size and its reciprocal.
   const double inv_coarse = 1.0 / (cell_size_m_ * kBrickSide);
-  // Neighbouring pixels mostly share the 8 coarse cells around them: their AO is kept until the
-  // base cell changes. known: bit per corner looked up, observed: bit per corner found.
-  Eigen::Vector3d cached_base = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  unsigned known = 0, observed = 0;
-  float cached_ao[8];
-  const auto corner_ao = [&](const Eigen::Vector3d& base, int corner, const std::int64_t* c,
-                             float& ao) {
-    if (base != cached_base) {
-      cached_base = base;
-      known = observed = 0;
-    }
-    const unsigned bit = 1u << corner;
-    if (!(known & bit)) {
-      known |= bit;
-      // Coarse cell c holds the fine cells kBrickSide * c + [0, kBrickSide) per axis: one brick.
-      const std::int64_t x = c[0] * kBrickSide, y = c[1] * kBrickSide, z = c[2] * kBrickSide;
-      const auto code =
-          x >= kMortonMin && x <= kMortonMax && y >= kMortonMin && y <= kMortonMax &&
-                  z >= kMortonMin && z <= kMortonMax
-              ? morton_encode(static_cast<std::int32_t>(x), static_cast<std::int32_t>(y),
-                              static_cast<std::int32_t>(z))
-              : std::nullopt;
-      const int b = code ? index_.find(*code >> kBrickBits) : -1;
-      if (b >= 0 && brick_sums_[static_cast<std::size_t>(b)].weight_sum > 0.0f) {
+  // The mean AO of coarse cells (NaN: unobserved) in a direct-mapped cache: the pixels of a view
+  // share most of their coarse cells, and a lookup in a large grid's index is a cache miss. Keys
+  // pack the offset coordinates (within the Morton range).
+  constexpr int kCacheBits = 11;
+  struct Entry {
+    std::uint64_t key = ~std::uint64_t{0};  // never a packed coordinate
+    float ao = 0.0f;
+  };
+  std::array<Entry, std::size_t{1} << kCacheBits> cache{};
+  const auto pack = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    const auto offset = [](std::int64_t v) { return static_cast<std::uint64_t>(v - kMortonMin); };
+    return offset(x) | offset(y) << 21 | offset(z) << 42;
+  };
+  const auto brick_mean = [&](std::int64_t cx, std::int64_t cy, std::int64_t cz) {
+    constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+    if (cx > kMortonMax || cy > kMortonMax || cz > kMortonMax) return kNan;  // as sample()
+    const std::uint64_t key = pack(cx, cy, cz);
+    Entry& e = cache[(key * 0x9E3779B97F4A7C15ull) >> (64 - kCacheBits)];
+    if (e.key == key) return e.ao;
+    e.key = key;
+    e.ao = kNan;
+    // Coarse cell c holds the fine cells kBrickSide * c + [0, kBrickSide) per axis: one brick.
+    const std::int64_t x = cx * kBrickSide, y = cy * kBrickSide, z = cz * kBrickSide;
+    if (x >= kMortonMin && x <= kMortonMax && y >= kMortonMin && y <= kMortonMax &&
+        z >= kMortonMin && z <= kMortonMax) {
+      const int b =
+          index_.find(*morton_encode(static_cast<std::int32_t>(x), static_cast<std::int32_t>(y),
+                                     static_cast<std::int32_t>(z)) >>
+                      kBrickBits);
+      if (b >= 0) {
         const BrickSum& sum = brick_sums_[static_cast<std::size_t>(b)];
-        cached_ao[corner] = sum.ao_weight_sum / sum.weight_sum;
-        observed |= bit;
+        if (sum.weight_sum > 0.0f) e.ao = sum.ao_weight_sum / sum.weight_sum;
       }
     }
-    if (!(observed & bit)) return false;
-    ao = cached_ao[corner];
-    return true;
+    return e.ao;
   };
+  // trilinear_ao()'s arithmetic, with the 8 corners' AO kept while the base cell stays the same
+  // (neighbouring pixels mostly share it), and without a branch: an unobserved corner adds
+  // 0 * 0, which leaves both sums' bits as skipping it does (so does a zero weight).
+  std::uint64_t base_key = ~std::uint64_t{0};
+  double corner_ao[8], corner_seen[8];
   for (std::size_t i = 0; i < n; ++i) {
+    out[i] = std::numeric_limits<float>::quiet_NaN();
     const Eigen::Vector3f& v = vertices[i];
-    std::optional<float> ao;
-    if (!v.isZero())
-      ao = trilinear_ao((R * v.cast<double>() + t) * inv_coarse - Eigen::Vector3d::Constant(0.5),
-                        corner_ao);
-    out[i] = ao ? *ao : std::numeric_limits<float>::quiet_NaN();
+    if (v.isZero()) continue;
+    const Eigen::Vector3d g =
+        (R * v.cast<double>() + t) * inv_coarse - Eigen::Vector3d::Constant(0.5);
+    // floor(g) within the Morton range (which also rules out NaN), without a libm call.
+    std::int32_t bx, by, bz;
+    if (!to_cell_fast(g.x(), bx) || !to_cell_fast(g.y(), by) || !to_cell_fast(g.z(), bz)) continue;
+    const Eigen::Vector3d base(bx, by, bz);
+    const std::uint64_t key = pack(bx, by, bz);
+    if (key != base_key) {
+      base_key = key;
+      for (int corner = 0; corner < 8; ++corner) {
+        const float ao =
+            brick_mean(bx + (corner & 1), by + ((corner >> 1) & 1), bz + ((corner >> 2) & 1));
+        corner_seen[corner] = std::isnan(ao) ? 0.0 : 1.0;
+        corner_ao[corner] = std::isnan(ao) ? 0.0 : ao;
+      }
+    }
+    const Eigen::Vector3d f = g - base;
+    const double wx[2] = {1.0 - f.x(), f.x()}, wy[2] = {1.0 - f.y(), f.y()},
+                 wz[2] = {1.0 - f.z(), f.z()};
+    double sum = 0.0, total = 0.0;
+    for (int corner = 0; corner < 8; ++corner) {
+      const double tw =
+          wx[corner & 1] * wy[(corner >> 1) & 1] * wz[(corner >> 2) & 1] * corner_seen[corner];
+      sum += tw * corner_ao[corner];
+      total += tw;
+    }
+    if (total > 0.0) out[i] = static_cast<float>(std::min(std::max(sum / total, 0.0), 1.0));
   }
 }
 

@@ -64,12 +64,13 @@ void mvao_image(MvaoGrid& grid, AoViewRead read, const PointMaps& maps, const Po
   grid.refresh_brick_sums();
   const int w = maps.vertices.width();
   out.resize(w, maps.vertices.height());
-  tbb::parallel_for(tbb::blocked_range<int>(0, out.height()),
-                    [&](const tbb::blocked_range<int>& r) {
-                      for (int y = r.begin(); y < r.end(); ++y)
-                        grid.lookup_ao_coarse(maps.vertices.row(y), static_cast<std::size_t>(w),
-                                              T_world_camera, out.row(y));
-                    });
+  // Runs of whole rows (contiguous in both images): the coarse read's cache serves a run.
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, out.height()), [&](const tbb::blocked_range<int>& r) {
+        grid.lookup_ao_coarse(maps.vertices.row(r.begin()),
+                              static_cast<std::size_t>(w) * static_cast<std::size_t>(r.size()),
+                              T_world_camera, out.row(r.begin()));
+      });
 }
 
 SurfaceCloud::SurfaceCloud(SurfaceCloudOptions options) : options_(options) {
