@@ -79,22 +79,43 @@ PointMaps wall_maps(int width, int height, float depth_m) {
   return maps;
 }
 
+/// Every pixel of `a` is `b`'s, bit for bit, or NaN where `b` is.
+void expect_same_pixels(const Image<float>& a, const Image<float>& b) {
+  ASSERT_EQ(a.width(), b.width());
+  ASSERT_EQ(a.height(), b.height());
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) {
+      const float f = a(x, y), r = b(x, y);
+      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
+    }
+}
+
+/// 100 x 48 pixels of a wall at 1 m (100 a row: the batched lookup's batches do not divide a
+/// row), seen from a rotated pose, with its AO image (ao_of_x) and weights 1.
+struct WallView {
+  static constexpr int kWidth = 100, kHeight = 48;
+  PointMaps maps = wall_maps(kWidth, kHeight, 1.0f);
+  Image<float> ao{kWidth, kHeight}, weight{kWidth, kHeight, 1.0f};
+  Pose T_world_camera{
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+      Eigen::Vector3d(-0.7, 0.2, 1.3)};
+  explicit WallView(float (*ao_of_x)(int x)) {
+    for (int y = 0; y < kHeight; ++y)
+      for (int x = 0; x < kWidth; ++x) ao(x, y) = ao_of_x(x);
+  }
+};
+
 TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   AoConfig config;
   MvaoGrid grid(config);
-  // 100 pixels a row: the batched lookup's batches do not divide the row.
-  const int width = 100, height = 48;
-  const PointMaps maps = wall_maps(width, height, 1.0f);
-  Image<float> ao(width, height), weight(width, height, 1.0f);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) ao(x, y) = (x < width / 2) ? 0.25f : 0.75f;
+  WallView wall([](int x) { return x < WallView::kWidth / 2 ? 0.25f : 0.75f; });
+  const int width = WallView::kWidth, height = WallView::kHeight;
+  const PointMaps& maps = wall.maps;
+  const Pose& T_world_camera = wall.T_world_camera;
   for (int y = 24; y < height; ++y)
-    for (int x = 0; x < width; ++x) weight(x, y) = 0.0f;  // lower half never observed
-  const Pose T_world_camera(
-      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
-      Eigen::Vector3d(-0.7, 0.2, 1.3));
+    for (int x = 0; x < width; ++x) wall.weight(x, y) = 0.0f;  // lower half never observed
   Image<std::uint32_t> slots;
-  ASSERT_TRUE(grid.integrate(ao, weight, maps, T_world_camera, &slots).is_ok());
+  ASSERT_TRUE(grid.integrate(wall.ao, wall.weight, maps, T_world_camera, &slots).is_ok());
 
   PointMaps seen = maps;
   seen.vertices(5, 5).setZero();  // no surface
@@ -108,21 +129,12 @@ TEST(MvaoImage, ParallelEqualsReferenceAndReadsTheObservedCells) {
   mvao_image(grid, maps, T_world_camera, from_slots, &slots);
   Image<float> reference_unchanged;
   test::mvao_image_reference(grid, maps, T_world_camera, reference_unchanged);
+  expect_same_pixels(from_slots, reference_unchanged);
   int from_slot = 0;
   for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const float f = from_slots(x, y), r = reference_unchanged(x, y);
-      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
-      from_slot += slots(x, y) != MvaoGrid::kNoSlot ? 1 : 0;
-    }
+    for (int x = 0; x < width; ++x) from_slot += slots(x, y) != MvaoGrid::kNoSlot ? 1 : 0;
   EXPECT_EQ(from_slot, width * 24);
-  ASSERT_EQ(fast.width(), width);
-  ASSERT_EQ(fast.height(), height);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const float f = fast(x, y), r = reference(x, y);
-      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
-    }
+  expect_same_pixels(fast, reference);
   for (int x = 5; x <= 7; ++x) EXPECT_TRUE(std::isnan(fast(x, 5))) << x;
   EXPECT_FLOAT_EQ(fast(2, 10), 0.25f);    // a cell only the left half touched
   EXPECT_FLOAT_EQ(fast(96, 10), 0.75f);   // only the right half
@@ -135,48 +147,35 @@ TEST(MvaoImage, CoarseReadEqualsTheCoarsenedGridSampledPixelByPixel) {
   // third frame changed some bricks; ao.view_read cells gives the per-cell image.
   AoConfig config;
   MvaoGrid grid(config);
-  const int width = 100, height = 48;
-  const PointMaps maps = wall_maps(width, height, 1.0f);
-  Image<float> ao(width, height), weight(width, height, 1.0f);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) ao(x, y) = 0.2f + 0.6f * static_cast<float>(x) / width;
-  const Pose first(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
-                   Eigen::Vector3d(-0.7, 0.2, 1.3));
+  WallView wall([](int x) { return 0.2f + 0.6f * static_cast<float>(x) / WallView::kWidth; });
+  const Pose& first = wall.T_world_camera;
   const Pose second(
       Eigen::AngleAxisd(0.1, Eigen::Vector3d(0, 1, 0)).toRotationMatrix() * first.rotation(),
       first.translation() + Eigen::Vector3d(0.05, 0.0, 0.02));
-  ASSERT_TRUE(grid.integrate(ao, weight, maps, first).is_ok());
-  ASSERT_TRUE(grid.integrate(ao, weight, maps, second).is_ok());
-  PointMaps seen = maps;
+  ASSERT_TRUE(grid.integrate(wall.ao, wall.weight, wall.maps, first).is_ok());
+  ASSERT_TRUE(grid.integrate(wall.ao, wall.weight, wall.maps, second).is_ok());
+  PointMaps seen = wall.maps;
   seen.vertices(5, 5).setZero();  // no surface
   for (int round = 0; round < 2; ++round) {
     Image<float> coarse, reference;
     mvao_image(grid, AoViewRead::kCoarse, seen, second, coarse);
     EXPECT_EQ(grid.stale_bricks(), 0u);
     test::mvao_image_coarse_reference(grid, seen, second, reference);
+    expect_same_pixels(coarse, reference);
     int shown = 0;
-    for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width; ++x) {
-        const float f = coarse(x, y), r = reference(x, y);
-        EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
-        shown += std::isnan(f) ? 0 : 1;
-      }
-    EXPECT_EQ(shown, width * height - 1);
+    for (std::size_t i = 0; i < coarse.size(); ++i) shown += std::isnan(coarse.data()[i]) ? 0 : 1;
+    EXPECT_EQ(shown, WallView::kWidth * WallView::kHeight - 1);
     EXPECT_TRUE(std::isnan(coarse(5, 5)));
     // A third view brightens the left half.
-    for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width / 2; ++x) ao(x, y) = 1.0f;
-    ASSERT_TRUE(grid.integrate(ao, weight, maps, first).is_ok());
+    for (int y = 0; y < WallView::kHeight; ++y)
+      for (int x = 0; x < WallView::kWidth / 2; ++x) wall.ao(x, y) = 1.0f;
+    ASSERT_TRUE(grid.integrate(wall.ao, wall.weight, wall.maps, first).is_ok());
     EXPECT_GT(grid.stale_bricks(), 0u);
   }
   Image<float> cells, cells_reference;
   mvao_image(grid, AoViewRead::kCells, seen, second, cells);
   test::mvao_image_reference(grid, seen, second, cells_reference);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const float f = cells(x, y), r = cells_reference(x, y);
-      EXPECT_TRUE((std::isnan(f) && std::isnan(r)) || f == r) << x << "," << y;
-    }
+  expect_same_pixels(cells, cells_reference);
 }
 
 TEST(SurfaceCloud, OnePointPerVoxelWithTheNewestObservedAo) {
