@@ -30,36 +30,6 @@ inline bool to_cell_fast(double v, std::int32_t& cell) {
   return true;
 }
 
-/// Trilinear AO at `g` (cell units less half a cell: the 8 cell centres around it are the corners
-/// of the unit cube at floor(g)), renormalised over the corners whose AO corner_ao(coordinates,
-/// ao) finds; nullopt when g is not finite or outside the Morton range, or
-/// no corner with a non-zero weight is observed. sample()'s; lookup_ao_coarse() does the same
-/// arithmetic in its own loop (its test holds it to coarsened(kBrickSide).sample() bit for bit).
-template <class CornerAo>
-std::optional<float> trilinear_ao(const Eigen::Vector3d& g, CornerAo&& corner_ao) {
-  if (!g.allFinite()) return std::nullopt;
-  const Eigen::Vector3d base = g.array().floor();
-  if ((base.array() < kMortonMin).any() || (base.array() > kMortonMax).any()) return std::nullopt;
-  const Eigen::Vector3d f = g - base;
-  double sum = 0.0, total = 0.0;
-  for (int corner = 0; corner < 8; ++corner) {
-    const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
-    const double tw =
-        (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
-    if (!(tw > 0.0)) continue;
-    const std::int64_t c[3] = {static_cast<std::int64_t>(base.x()) + dx,
-                               static_cast<std::int64_t>(base.y()) + dy,
-                               static_cast<std::int64_t>(base.z()) + dz};
-    if (c[0] > kMortonMax || c[1] > kMortonMax || c[2] > kMortonMax) continue;
-    float ao;
-    if (!corner_ao(c, ao)) continue;
-    sum += tw * ao;
-    total += tw;
-  }
-  if (!(total > 0.0)) return std::nullopt;
-  return static_cast<float>(std::min(std::max(sum / total, 0.0), 1.0));
-}
-
 }  // namespace
 
 MvaoGrid::MvaoGrid(const AoConfig& config)
@@ -335,15 +305,29 @@ Eigen::Vector3d MvaoGrid::cell_centre(const CellIndex& c) const {
 }
 
 std::optional<float> MvaoGrid::sample(const Eigen::Vector3d& p_world) const {
-  return trilinear_ao(p_world * inv_cell_size_ - Eigen::Vector3d::Constant(0.5),
-                      [&](const std::int64_t* c, float& ao) {
-                        const MvaoCell* cell =
-                            find({static_cast<std::int32_t>(c[0]), static_cast<std::int32_t>(c[1]),
-                                  static_cast<std::int32_t>(c[2])});
-                        if (cell == nullptr) return false;
-                        ao = cell->ao();
-                        return true;
-                      });
+  const Eigen::Vector3d g = p_world * inv_cell_size_ - Eigen::Vector3d::Constant(0.5);
+  if (!g.allFinite()) return std::nullopt;
+  const Eigen::Vector3d base = g.array().floor();
+  if ((base.array() < kMortonMin).any() || (base.array() > kMortonMax).any()) return std::nullopt;
+  const Eigen::Vector3d f = g - base;
+  double sum = 0.0, total = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
+    const double tw =
+        (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
+    if (!(tw > 0.0)) continue;
+    const std::int64_t cx = static_cast<std::int64_t>(base.x()) + dx;
+    const std::int64_t cy = static_cast<std::int64_t>(base.y()) + dy;
+    const std::int64_t cz = static_cast<std::int64_t>(base.z()) + dz;
+    if (cx > kMortonMax || cy > kMortonMax || cz > kMortonMax) continue;
+    const MvaoCell* c = find({static_cast<std::int32_t>(cx), static_cast<std::int32_t>(cy),
+                              static_cast<std::int32_t>(cz)});
+    if (!c) continue;
+    sum += tw * c->ao();
+    total += tw;
+  }
+  if (!(total > 0.0)) return std::nullopt;
+  return static_cast<float>(std::min(std::max(sum / total, 0.0), 1.0));
 }
 
 void MvaoGrid::refresh_brick_sums() {
@@ -403,9 +387,10 @@ void MvaoGrid::lookup_ao_coarse(const Eigen::Vector3f* vertices, std::size_t n,
     }
     return e.ao;
   };
-  // trilinear_ao()'s arithmetic, with the 8 corners' AO kept while the base cell stays the same
-  // (neighbouring pixels mostly share it), and without a branch: an unobserved corner adds
-  // 0 * 0, which leaves both sums' bits as skipping it does (so does a zero weight).
+  // sample()'s arithmetic on the coarse cells (its test holds the two to the same bits), with
+  // the 8 corners' AO kept while the base cell stays the same (neighbouring pixels mostly share
+  // it), and without a branch: an unobserved corner adds 0 * 0, which leaves both sums' bits as
+  // skipping it does (so does a zero weight).
   std::uint64_t base_key = ~std::uint64_t{0};
   double corner_ao[8], corner_seen[8];
   for (std::size_t i = 0; i < n; ++i) {
