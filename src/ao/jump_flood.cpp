@@ -130,7 +130,9 @@ BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<flo
       return false;
     };
     return onto_map(x, y, w, h, wrap) &&
-           ((side(-1, 0) && side(1, 0)) || (side(0, -1) && side(0, 1)));
+           ((side(-1, 0) && side(1, 0)) || (side(0, -1) && side(0, 1)) ||
+            (at(x - 1, y - 1) > 0.0f && at(x + 1, y + 1) > 0.0f) ||
+            (at(x - 1, y + 1) > 0.0f && at(x + 1, y - 1) > 0.0f));
   };
   Image<float> laplacian(w, h, 0.0f);
   std::vector<float> values;

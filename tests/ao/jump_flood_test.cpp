@@ -101,11 +101,13 @@ TEST(BorderDistance, ADepthStepAndTheMapsEdgeAreTheBorders) {
 }
 
 TEST(BorderDistance, DropoutsAreNoBordersButWiderHolesAre) {
-  // A plane at 1.5 m with holes: a single missing pixel, a 3-pixel gap in a row and a 2 x 2 hole
-  // (each of their pixels has points within 2 pixels on both sides along its row or column:
-  // dropouts, read as the surface around them), and a 4 x 4 hole (a coverage border: the 16
-  // points beside it are edges, as is the map's outer ring). With every hole taken for a border,
-  // the first three would add 4 + 8 + 8 edge pixels.
+  // A plane at 1.5 m with holes: a single missing pixel, a 3-pixel gap in a row, a 2 x 2 and a
+  // 3 x 3 hole (each of their pixels has points within 2 pixels on both sides along its row or
+  // column, or on both sides along a diagonal: dropouts, read as the surface around them), and
+  // a 4 x 4 hole (a coverage border: the 8 points beside its sides' middle pixels are edges, as
+  // is the map's outer ring; its corner pixels, with points diagonally on both sides, are
+  // dropouts). With every hole taken for a border, the first four would add 4 + 8 + 8 + 12 edge
+  // pixels; with rows and columns alone, the 3 x 3 hole's corners would add 8 and the 4 x 4's 8.
   const int w = 160, h = 120;
   const Intrinsics k{w, h, 100.0, 100.0, 79.5, 59.5};
   Image<float> depth(w, h, 1.5f);
@@ -113,18 +115,22 @@ TEST(BorderDistance, DropoutsAreNoBordersButWiderHolesAre) {
   for (int x = 60; x <= 62; ++x) depth(x, 30) = 0.0f;
   for (int y = 30; y <= 31; ++y)
     for (int x = 100; x <= 101; ++x) depth(x, y) = 0.0f;
+  for (int y = 80; y <= 82; ++y)
+    for (int x = 120; x <= 122; ++x) depth(x, y) = 0.0f;
   for (int y = 80; y <= 83; ++y)
     for (int x = 40; x <= 43; ++x) depth(x, y) = 0.0f;
   RangeMap map;
   range_map_from_depth(depth, k, map);
   Image<float> d;
   const BorderStats stats = border_distance(map, 0.01f, d);
-  EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2) + 16);
+  EXPECT_EQ(stats.edges, 2 * w + 2 * (h - 2) + 8);
   EXPECT_FLOAT_EQ(d(41, 30), 30.0f);   // beside the single dropout: the top ring is nearest
   EXPECT_FLOAT_EQ(d(101, 29), 29.0f);  // above the 2 x 2 hole
+  EXPECT_FLOAT_EQ(d(119, 80), 39.0f);  // beside the 3 x 3 hole's corner: the bottom ring
   EXPECT_FLOAT_EQ(d(39, 81), 0.0f);    // beside the 4 x 4 hole
   EXPECT_FLOAT_EQ(d(44, 82), 0.0f);
   EXPECT_FLOAT_EQ(d(41, 79), 0.0f);
+  EXPECT_FLOAT_EQ(d(39, 80), 1.0f);  // beside its corner: no edge, one from the next point
   EXPECT_FLOAT_EQ(d(41, 86), 2.0f);  // two rows below the point beside the hole
 }
 
