@@ -91,6 +91,12 @@ bool scan_boxes_meet(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b,
 
 namespace {
 
+/// How far apart corresponding_pixel()'s noise test lets two points of range noise sigma_a and
+/// sigma_b lie.
+float noise_reach(float sigma_a, float sigma_b) {
+  return 2.0f * (kNoiseMatchFactor * std::sqrt(sigma_a * sigma_a + sigma_b * sigma_b));
+}
+
 /// corresponding_pixel() once q's pixel (px, py) is known.
 /// `noisy`: noise_i or map_j.noise is known (the noise test is skipped otherwise).
 bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
@@ -124,11 +130,8 @@ bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, flo
   const float distance = (q - p_ij).norm();
   if (!(distance < 2.0f * t)) {
     // Farther than the pixels' spacing: within the range noise of the two points?
-    if (!noisy) return false;
-    const float sigma_i = noise_i.sigma(depth_i);
-    const float sigma_j = map_j.noise.sigma(depth_j);
-    const float t_noise = kNoiseMatchFactor * std::sqrt(sigma_i * sigma_i + sigma_j * sigma_j);
-    if (!(distance < 2.0f * t_noise)) return false;
+    if (!noisy || !(distance < noise_reach(noise_i.sigma(depth_i), map_j.noise.sigma(depth_j))))
+      return false;
   }
   return (scanner_i - p_ij).dot(map_j.normals(px, py)) > 0.0f;
 }
@@ -136,8 +139,7 @@ bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, flo
 }  // namespace
 
 float pair_margin(const MultiScanParams& params, const ScanNoise& a, const ScanNoise& b) {
-  const float sa = a.max_sigma(), sb = b.max_sigma();
-  return std::max(params.pair_margin_m, 2.0f * kNoiseMatchFactor * std::sqrt(sa * sa + sb * sb));
+  return std::max(params.pair_margin_m, noise_reach(a.max_sigma(), b.max_sigma()));
 }
 
 bool corresponding_pixel(const RangeMap& map_j, const Eigen::Vector3f& q, float rad_i,
