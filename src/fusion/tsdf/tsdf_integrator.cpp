@@ -26,6 +26,7 @@ bool detail::integration_input_usable(const Image<float>& depth_m, const Intrins
 }
 namespace {
 
+using detail::BandLeft;
 using detail::BandRays;
 using detail::BandSegments8;
 using detail::BlockProjection;
@@ -110,7 +111,9 @@ void update_block_portable(const BlockProjection& b, Voxel* voxels) {
 /// the number of valid depth pixels. Skips the traversal of segments whose cells are known: a
 /// segment at most one cell from its first cell per axis crosses the cells its crossing order
 /// (ranks) gives, and when the end cells and the order equal the previous such pixel's, every key
-/// was just emitted. `simd` (the caller checked the CPU): eight pixels' segments per AVX2 vector.
+/// was just emitted. `simd` (the caller checked the CPU): eight pixels' segments per AVX2 vector,
+/// which also finds the pixels that repeat the pixel to their left (their segments never reach
+/// the per-pixel code: most pixels of a row, since a block spans many pixels).
 int band_keys(const Image<float>& depth_m, int y_begin, int y_end, const Eigen::Matrix3f& R,
               const BandRays& rays_of_image, float cy, float fy_inv, float to_grid, bool simd,
               std::vector<std::uint64_t>& keys) {
@@ -156,10 +159,13 @@ int band_keys(const Image<float>& depth_m, int y_begin, int y_end, const Eigen::
 #if AOSCAN_TSDF_X86
     if (simd) {
       BandSegments8 batch;
+      BandLeft left;
       for (; x + 8 <= depth_m.width(); x += 8) {
-        const int bits = detail::band_segments_avx2(row, x, rays_of_row, batch);
+        const int bits = detail::band_segments_avx2(row, x, rays_of_row, batch, left);
         rays += __builtin_popcount(bits & 0xFF);
-        for (int inside = bits >> 8; inside != 0; inside &= inside - 1) {
+        // A repeating lane crosses the cells just emitted for the lane to its left, in the same
+        // order: segment() would add no key that is not already in `keys`.
+        for (int inside = (bits >> 8) & ~(bits >> 16) & 0xFF; inside != 0; inside &= inside - 1) {
           const int l = __builtin_ctz(inside);
           segment({batch.a[0][l], batch.a[1][l], batch.a[2][l]},
                   {batch.b[0][l], batch.b[1][l], batch.b[2][l]},

@@ -22,6 +22,23 @@ __attribute__((target("avx2"))) inline __m256i floor8(__m256 v) {
   return _mm256_add_epi32(i, _mm256_castps_si256(above));  // true lanes are -1
 }
 
+/// Lane i - 1 of v moved to lane i, and lane 0 given `carried` (the last lane of the eight before).
+__attribute__((target("avx2"))) inline __m256i from_left(__m256i v, int carried) {
+  const __m256i to_left = _mm256_setr_epi32(7, 0, 1, 2, 3, 4, 5, 6);
+  return _mm256_blend_epi32(_mm256_permutevar8x32_epi32(v, to_left), _mm256_set1_epi32(carried),
+                            0x01);
+}
+
+/// short_path_ranks()'s "axis i crosses before axis j" of eight segments, -1 where it does.
+__attribute__((target("avx2"))) inline __m256i crosses_before(const __m256* num, const __m256* den,
+                                                              const __m256i* moves, int i, int j) {
+  const __m256 ti = _mm256_mul_ps(num[i], den[j]), tj = _mm256_mul_ps(num[j], den[i]);
+  const __m256i earlier = _mm256_castps_si256(i < j ? _mm256_cmp_ps(ti, tj, _CMP_LE_OQ)
+                                                    : _mm256_cmp_ps(ti, tj, _CMP_LT_OQ));
+  const __m256i j_still = _mm256_cmpeq_epi32(moves[j], _mm256_setzero_si256());
+  return _mm256_and_si256(moves[i], _mm256_or_si256(j_still, earlier));
+}
+
 }  // namespace
 
 /// update_block_portable() with one voxel row (8 voxels, 32 bytes) per AVX2 vector and a gather
@@ -90,16 +107,22 @@ __attribute__((target("avx2"))) void update_block_avx2(const BlockProjection& b,
 }
 
 /// The band segment set-up of pixels x0 .. x0 + 7 of one row with AVX2: the float operations
-/// of the per-pixel code in the same order (no FMA), so the same ends and cells. Returns the
-/// lanes with a valid depth (bit i = pixel x0 + i) in the low byte and, among them, those whose
-/// ends are inside the packable block range in the high byte.
+/// of the per-pixel code in the same order (no FMA), so the same ends, cells and crossing order.
+/// Returns the lanes with a valid depth (bit i = pixel x0 + i) in bits 0-7, among them those whose
+/// ends are inside the packable block range in bits 8-15, and among those the lanes that repeat
+/// the pixel to their left (BandSegments8) in bits 16-23; `left` carries the row's last lane from
+/// one call to the next.
 __attribute__((target("avx2"))) int band_segments_avx2(const float* depth, int x0,
-                                                       const BandRays& r, BandSegments8& out) {
+                                                       const BandRays& r, BandSegments8& out,
+                                                       BandLeft& left) {
   const __m256 d = _mm256_loadu_ps(depth + x0);
   const __m256 valid = _mm256_and_ps(_mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_GT_OQ),
                                      _mm256_cmp_ps(d, _mm256_set1_ps(1e4f), _CMP_LT_OQ));
   const int valid_bits = _mm256_movemask_ps(valid);
-  if (valid_bits == 0) return 0;
+  if (valid_bits == 0) {
+    left.inside = false;
+    return 0;
+  }
   const __m256 xs =
       _mm256_add_ps(_mm256_set1_ps(static_cast<float>(x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
   const __m256 rx =
@@ -110,24 +133,79 @@ __attribute__((target("avx2"))) int band_segments_avx2(const float* depth, int x
   const __m256 limit = _mm256_set1_ps(static_cast<float>(TsdfVolume::kMaxBlockCoord));
   const __m256 neg_limit = _mm256_set1_ps(-static_cast<float>(TsdfVolume::kMaxBlockCoord));
   const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  const __m256i zero = _mm256_setzero_si256();
   __m256 inside = valid;
+  __m256 av[3], bv[3];
+  __m256i ia[3], ib[3], delta[3], moves[3];
+  __m256i same = _mm256_set1_epi32(-1);        // ends in the cells of the pixel to the left
+  __m256i moving = zero;                       // the number of axes along which the cell changes
+  __m256i within_one = _mm256_set1_epi32(-1);  // at most one cell along every axis
   for (int c = 0; c < 3; ++c) {
     const __m256 dir =
         _mm256_add_ps(_mm256_set1_ps(r.row_dir[c]), _mm256_mul_ps(rx, _mm256_set1_ps(r.x_dir[c])));
     const __m256 origin = _mm256_set1_ps(r.origin[c]);
-    const __m256 a = _mm256_add_ps(_mm256_mul_ps(dir, z0), origin);
-    const __m256 b = _mm256_add_ps(_mm256_mul_ps(dir, z1), origin);
-    inside = _mm256_and_ps(inside, _mm256_cmp_ps(_mm256_and_ps(a, abs_mask), limit, _CMP_LT_OQ));
-    inside = _mm256_and_ps(inside, _mm256_cmp_ps(_mm256_and_ps(b, abs_mask), limit, _CMP_LT_OQ));
-    _mm256_storeu_ps(out.a[c], a);
-    _mm256_storeu_ps(out.b[c], b);
+    av[c] = _mm256_add_ps(_mm256_mul_ps(dir, z0), origin);
+    bv[c] = _mm256_add_ps(_mm256_mul_ps(dir, z1), origin);
+    inside =
+        _mm256_and_ps(inside, _mm256_cmp_ps(_mm256_and_ps(av[c], abs_mask), limit, _CMP_LT_OQ));
+    inside =
+        _mm256_and_ps(inside, _mm256_cmp_ps(_mm256_and_ps(bv[c], abs_mask), limit, _CMP_LT_OQ));
+    _mm256_storeu_ps(out.a[c], av[c]);
+    _mm256_storeu_ps(out.b[c], bv[c]);
     // Lanes outside the range are never read; clamp them so the conversion stays defined.
-    const __m256i ia = floor8(_mm256_min_ps(_mm256_max_ps(a, neg_limit), limit));
-    const __m256i ib = floor8(_mm256_min_ps(_mm256_max_ps(b, neg_limit), limit));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ia[c]), ia);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ib[c]), ib);
+    ia[c] = floor8(_mm256_min_ps(_mm256_max_ps(av[c], neg_limit), limit));
+    ib[c] = floor8(_mm256_min_ps(_mm256_max_ps(bv[c], neg_limit), limit));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ia[c]), ia[c]);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.ib[c]), ib[c]);
+    same = _mm256_and_si256(
+        same, _mm256_and_si256(_mm256_cmpeq_epi32(ia[c], from_left(ia[c], left.ia[c])),
+                               _mm256_cmpeq_epi32(ib[c], from_left(ib[c], left.ib[c]))));
+    delta[c] = _mm256_sub_epi32(ib[c], ia[c]);
+    moves[c] = _mm256_xor_si256(_mm256_cmpeq_epi32(delta[c], zero), _mm256_set1_epi32(-1));
+    moving = _mm256_sub_epi32(moving, moves[c]);
+    within_one = _mm256_andnot_si256(
+        _mm256_cmpgt_epi32(_mm256_abs_epi32(delta[c]), _mm256_set1_epi32(1)), within_one);
   }
-  return valid_bits | (_mm256_movemask_ps(inside) << 8);
+  // The crossing order of short segments, as short_path_ranks() finds it (lanes with a longer
+  // segment get a meaningless order, never compared: their cells alone decide below).
+  __m256 num[3], den[3];
+  for (int c = 0; c < 3; ++c) {
+    const __m256 sign = _mm256_cvtepi32_ps(delta[c]);
+    const __m256 plane =
+        _mm256_cvtepi32_ps(_mm256_blendv_epi8(ia[c], ib[c], _mm256_cmpgt_epi32(delta[c], zero)));
+    num[c] = _mm256_mul_ps(_mm256_sub_ps(plane, av[c]), sign);
+    den[c] =
+        _mm256_blendv_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(_mm256_sub_ps(bv[c], av[c]), sign),
+                         _mm256_castsi256_ps(moves[c]));
+  }
+  __m256i rank[3];
+  rank[0] = _mm256_sub_epi32(zero, _mm256_add_epi32(crosses_before(num, den, moves, 1, 0),
+                                                    crosses_before(num, den, moves, 2, 0)));
+  rank[1] = _mm256_sub_epi32(zero, _mm256_add_epi32(crosses_before(num, den, moves, 0, 1),
+                                                    crosses_before(num, den, moves, 2, 1)));
+  rank[2] = _mm256_sub_epi32(zero, _mm256_add_epi32(crosses_before(num, den, moves, 0, 2),
+                                                    crosses_before(num, den, moves, 1, 2)));
+  __m256i same_order = _mm256_set1_epi32(-1);
+  for (int c = 0; c < 3; ++c)
+    same_order =
+        _mm256_and_si256(same_order, _mm256_cmpeq_epi32(rank[c], from_left(rank[c], left.rank[c])));
+  // A short segment with the cells and order of the pixel before crosses what it just crossed;
+  // a longer one along one axis only crosses the cells between its ends, whatever its ends.
+  const __m256i one_axis = _mm256_cmpgt_epi32(_mm256_set1_epi32(2), moving);
+  const __m256i repeats =
+      _mm256_and_si256(same, _mm256_or_si256(_mm256_and_si256(within_one, same_order),
+                                             _mm256_andnot_si256(within_one, one_axis)));
+  const int inside_bits = _mm256_movemask_ps(inside);
+  const int left_inside = (inside_bits << 1) | (left.inside ? 1 : 0);
+  const int repeat_bits =
+      _mm256_movemask_ps(_mm256_castsi256_ps(repeats)) & inside_bits & left_inside & 0xFF;
+  for (int c = 0; c < 3; ++c) {
+    left.ia[c] = _mm256_extract_epi32(ia[c], 7);
+    left.ib[c] = _mm256_extract_epi32(ib[c], 7);
+    left.rank[c] = _mm256_extract_epi32(rank[c], 7);
+  }
+  left.inside = (inside_bits & 0x80) != 0;
+  return valid_bits | (inside_bits << 8) | (repeat_bits << 16);
 }
 
 #endif  // AOSCAN_TSDF_X86

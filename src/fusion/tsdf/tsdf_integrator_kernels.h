@@ -45,9 +45,20 @@ struct BandRays {
 };
 
 /// The band segments of eight pixels of a row: ends a = ray(z0), b = ray(z1) and their cells.
+/// A pixel *repeats* the pixel to its left when both are inside the block range, their ends lie
+/// in the same cells, and either the segments are short (at most one cell along every axis) and
+/// cross the cell walls in the same order, or they change cell along one axis only: such a segment
+/// crosses exactly the cells of its left neighbour, in the same order, so the band allocation
+/// skips it.
 struct BandSegments8 {
   float a[3][8], b[3][8];
   int ia[3][8], ib[3][8];
+};
+
+/// The last pixel of the previous eight of a row, for the first of the next eight.
+struct BandLeft {
+  int ia[3] = {0, 0, 0}, ib[3] = {0, 0, 0}, rank[3] = {0, 0, 0};
+  bool inside = false;  ///< false at the start of a row
 };
 
 #if AOSCAN_TSDF_X86
@@ -57,10 +68,13 @@ struct BandSegments8 {
 void update_block_avx2(const BlockProjection& b, Voxel* voxels);
 
 /// The band segment set-up of pixels x0 .. x0 + 7 of one row with AVX2: the float operations of
-/// the per-pixel code in the same order (no FMA), so the same ends and cells. Returns the lanes
-/// with a valid depth (bit i = pixel x0 + i) in the low byte and, among them, those whose ends
-/// are inside the packable block range in the high byte. Only on a CPU with AVX2.
-int band_segments_avx2(const float* depth, int x0, const BandRays& r, BandSegments8& out);
+/// the per-pixel code in the same order (no FMA), so the same ends, cells and crossing order.
+/// Returns the lanes with a valid depth (bit i = pixel x0 + i) in bits 0-7, among them those whose
+/// ends are inside the packable block range in bits 8-15, and among those the lanes that repeat
+/// the pixel to their left (BandSegments8) in bits 16-23. `left`: the row's pixel before x0 (reset
+/// at the start of a row), updated to pixel x0 + 7. Only on a CPU with AVX2.
+int band_segments_avx2(const float* depth, int x0, const BandRays& r, BandSegments8& out,
+                       BandLeft& left);
 #endif
 
 /// The truncation band of a pixel's ray with depth d, in voxel units: from max(d - trunc, d / 2)
