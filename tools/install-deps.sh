@@ -6,7 +6,7 @@
 # Uses sudo only when not root; does nothing when everything is already installed.
 set -euo pipefail
 
-packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libspdlog-dev libcli11-dev
+packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev libdeflate-dev libspdlog-dev libcli11-dev
           nlohmann-json3-dev libyaml-cpp-dev libtbb-dev
           libopenvdb-dev libboost-iostreams-dev     # volume.vdb (--save-volume)
           libtinyxml2-dev                            # MeshLab projects (aoscan scans)

@@ -1,14 +1,19 @@
 /// @file png_read.cpp
-/// @brief libpng decoding of 16-bit grey PNGs, with setjmp/longjmp error handling kept inside a
-/// small function that owns no C++ objects.
+/// @brief Decoding of 16-bit grey PNGs: the common case (one run of IDAT chunks, no interlacing)
+/// inflated by libdeflate and unfiltered here, everything else (and every error message) by
+/// libpng, with setjmp/longjmp error handling kept inside a small function that owns no C++
+/// objects.
 #include "io/png_read.h"
 
 #include <cerrno>
 #include <csetjmp>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <vector>
 
+#include <libdeflate.h>
 #include <png.h>
 
 namespace aoscan {
@@ -164,10 +169,156 @@ int read_file(const std::string& path, std::vector<unsigned char>& bytes) {
   return error;
 }
 
+std::uint32_t be32(const unsigned char* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         std::uint32_t{p[3]};
+}
+
+/// The CRC of a chunk (over its type and data) equals the one stored after it.
+bool chunk_crc_ok(const unsigned char* chunk, std::uint32_t length) {
+  return libdeflate_crc32(0, chunk + 4, std::size_t{length} + 4) == be32(chunk + 8 + length);
+}
+
+bool is_letter(unsigned char c) {
+  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
+}
+
+/// Undoes the PNG filter of one row of 16-bit grey pixels (2 bytes a pixel) in place; `prev` is
+/// the unfiltered row above (zeros for the first row). False for an unknown filter type.
+bool unfilter_row(int type, unsigned char* row, const unsigned char* prev, std::size_t bytes) {
+  switch (type) {
+    case 0:
+      return true;
+    case 1:  // Sub
+      for (std::size_t i = 2; i < bytes; ++i)
+        row[i] = static_cast<unsigned char>(row[i] + row[i - 2]);
+      return true;
+    case 2:  // Up
+      for (std::size_t i = 0; i < bytes; ++i) row[i] = static_cast<unsigned char>(row[i] + prev[i]);
+      return true;
+    case 3:  // Average
+      for (std::size_t i = 0; i < bytes; ++i) {
+        const unsigned left = i >= 2 ? row[i - 2] : 0u;
+        row[i] = static_cast<unsigned char>(row[i] + ((left + prev[i]) >> 1));
+      }
+      return true;
+    case 4: {  // Paeth: the two bytes of a pixel are two independent chains
+      int a[2] = {0, 0}, c[2] = {0, 0};  // left and upper-left of each byte
+      for (std::size_t i = 0; i < bytes; i += 2) {
+        for (int k = 0; k < 2; ++k) {
+          const int b = prev[i + k];
+          const int pa = std::abs(b - c[k]), pb = std::abs(a[k] - c[k]),
+                    pc = std::abs(a[k] + b - 2 * c[k]);
+          const int predictor = (pa <= pb && pa <= pc) ? a[k] : (pb <= pc ? b : c[k]);
+          a[k] = (row[i + k] + predictor) & 0xFF;
+          row[i + k] = static_cast<unsigned char>(a[k]);
+          c[k] = b;
+        }
+      }
+      return true;
+    }
+    default:
+      return false;
+  }
+}
+
+struct FreeDecompressor {
+  void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
+};
+
 }  // namespace
 
-Status read_grey16_png(const std::string& path, Image<std::uint16_t>& out,
-                       std::optional<std::uint64_t> frame_index) {
+namespace detail {
+
+bool decode_grey16_png_common(const std::vector<unsigned char>& bytes, Image<std::uint16_t>& out) {
+  thread_local std::vector<unsigned char> stream, rows;
+  thread_local std::unique_ptr<libdeflate_decompressor, FreeDecompressor> inflater;
+  const std::size_t size = bytes.size();
+  const unsigned char* data = bytes.data();
+  // The signature and IHDR first: 16-bit grey, deflate, standard filters, not interlaced.
+  constexpr std::size_t kIhdrEnd = 8 + 8 + 13 + 4;
+  if (size < kIhdrEnd || std::memcmp(data, "\x89PNG\r\n\x1a\n", 8) != 0 || be32(data + 8) != 13 ||
+      std::memcmp(data + 12, "IHDR", 4) != 0 || !chunk_crc_ok(data + 8, 13))
+    return false;
+  const std::uint32_t width = be32(data + 16), height = be32(data + 20);
+  if (width == 0 || height == 0 || width > kMaxSide || height > kMaxSide || data[24] != 16 ||
+      data[25] != 0 || data[26] != 0 || data[27] != 0 || data[28] != 0)
+    return false;
+  const std::size_t row_bytes = 2 * std::size_t{width};
+  const std::size_t raw_bytes = std::size_t{height} * (row_bytes + 1);
+  if (static_cast<double>(raw_bytes) > 1100.0 * static_cast<double>(size)) return false;
+  // The chunks up to IEND: one run of IDAT chunks (their CRCs right), letters for names, no other
+  // critical chunk, none longer than libpng's default limit for a chunk (larger ones it may
+  // refuse).
+  constexpr std::uint32_t kChunkLimit = 8000000;
+  const unsigned char* single = nullptr;  // the IDAT data when there is one IDAT chunk
+  std::size_t single_length = 0, idat_chunks = 0;
+  stream.clear();
+  enum { kBefore, kInside, kAfter } idat = kBefore;
+  for (std::size_t pos = kIhdrEnd;;) {
+    if (size - pos < 12) return false;
+    const std::uint32_t length = be32(data + pos);
+    if (length > size - pos - 12) return false;
+    const unsigned char* type = data + pos + 4;
+    if (!is_letter(type[0]) || !is_letter(type[1]) || !is_letter(type[2]) || !is_letter(type[3]))
+      return false;
+    if (std::memcmp(type, "IDAT", 4) == 0) {
+      if (idat == kAfter || length > kChunkLimit || !chunk_crc_ok(data + pos, length)) return false;
+      idat = kInside;
+      if (++idat_chunks == 1) {
+        single = data + pos + 8;
+        single_length = length;
+      } else {
+        if (idat_chunks == 2) stream.assign(single, single + single_length);
+        stream.insert(stream.end(), data + pos + 8, data + pos + 8 + length);
+      }
+    } else if (std::memcmp(type, "IEND", 4) == 0) {
+      if (idat == kBefore || length != 0 || !chunk_crc_ok(data + pos, 0)) return false;
+      break;
+    } else if (type[0] >= 'A' && type[0] <= 'Z') {
+      return false;  // PLTE, a second IHDR or an unknown critical chunk: libpng's to judge
+    } else {
+      if (length > kChunkLimit) return false;
+      if (idat == kInside) idat = kAfter;
+    }
+    pos += 12 + std::size_t{length};
+  }
+  const unsigned char* in = idat_chunks == 1 ? single : stream.data();
+  const std::size_t in_length = idat_chunks == 1 ? single_length : stream.size();
+  // The zlib stream must end exactly where the rows and the IDAT data end.
+  if (!inflater) {
+    inflater.reset(libdeflate_alloc_decompressor());
+    if (!inflater) return false;
+  }
+  if (rows.size() < raw_bytes) rows.resize(raw_bytes);
+  std::size_t used_in = 0, written = 0;
+  if (libdeflate_zlib_decompress_ex(inflater.get(), in, in_length, rows.data(), raw_bytes, &used_in,
+                                    &written) != LIBDEFLATE_SUCCESS ||
+      used_in != in_length || written != raw_bytes)
+    return false;
+  const int w = static_cast<int>(width), h = static_cast<int>(height);
+  if (out.width() != w || out.height() != h) out.resize(w, h);
+  thread_local std::vector<unsigned char> zeros;
+  if (zeros.size() < row_bytes) zeros.assign(row_bytes, 0);
+  const unsigned char* prev = zeros.data();
+  for (int y = 0; y < h; ++y) {
+    unsigned char* row = rows.data() + static_cast<std::size_t>(y) * (row_bytes + 1);
+    if (!unfilter_row(row[0], row + 1, prev, row_bytes)) return false;
+    std::uint16_t* dst = out.row(y);
+    for (int x = 0; x < w; ++x)  // big-endian samples
+      dst[x] = static_cast<std::uint16_t>((row[1 + 2 * x] << 8) | row[2 + 2 * x]);
+    prev = row + 1;
+  }
+  return true;
+}
+
+}  // namespace detail
+
+namespace {
+
+/// read_grey16_png(), through the common path first when `common` is set.
+Status read_png(const std::string& path, Image<std::uint16_t>& out,
+                std::optional<std::uint64_t> frame_index, bool common) {
   thread_local std::vector<unsigned char> bytes;
   thread_local std::vector<png_bytep> rows;
   auto fail = [&](const std::string& reason) {
@@ -187,6 +338,7 @@ Status read_grey16_png(const std::string& path, Image<std::uint16_t>& out,
       return fail(prefix ? "truncated PNG" : "not a PNG file");
     }
     if (!chunks_fit(bytes)) return fail("truncated PNG");
+    if (common && detail::decode_grey16_png_common(bytes, out)) return Status::ok();
     DecodeState state;
     state.data = bytes.data();
     state.size = bytes.size();
@@ -204,6 +356,18 @@ Status read_grey16_png(const std::string& path, Image<std::uint16_t>& out,
   } catch (const std::exception& e) {  // allocation failure while sizing the image
     return fail(std::string("cannot decode: ") + e.what());
   }
+}
+
+}  // namespace
+
+Status read_grey16_png(const std::string& path, Image<std::uint16_t>& out,
+                       std::optional<std::uint64_t> frame_index) {
+  return read_png(path, out, frame_index, true);
+}
+
+Status detail::read_grey16_png_libpng(const std::string& path, Image<std::uint16_t>& out,
+                                      std::optional<std::uint64_t> frame_index) {
+  return read_png(path, out, frame_index, false);
 }
 
 }  // namespace aoscan
