@@ -303,20 +303,36 @@ bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rg
     return true;
   }
   // None of the eight is coloured (a vertex of the mesh between two surfaces at a depth edge,
-  // whose voxels lie outside both shells): the nearest coloured voxel one voxel further out.
-  float best = 3.5f;
-  for (int dz = -1; dz <= 2; ++dz)
-    for (int dy = -1; dy <= 2; ++dy)
-      for (int dx = -1; dx <= 2; ++dx) {
+  // whose voxels lie outside both shells, or a surface whose shell the colour frames missed): the
+  // nearest coloured voxel within kReachSq, found among the 6^3 voxels around the eight; their
+  // blocks (at most two per axis) are looked up once.
+  constexpr float kReachSq = 8.5f;  // within sqrt(8.5) = 2.9 voxels
+  constexpr int kFrom = -2, kTo = 3;
+  const Eigen::Vector3i low(x0 + kFrom, y0 + kFrom, z0 + kFrom);
+  const Eigen::Vector3i first_block(low.x() >> 3, low.y() >> 3, low.z() >> 3);
+  const ColourBlock* blocks[2][2][2];
+  for (int bz = 0; bz < 2; ++bz)
+    for (int by = 0; by < 2; ++by)
+      for (int bx = 0; bx < 2; ++bx)
+        blocks[bz][by][bx] = block(volume.find_block(first_block + Eigen::Vector3i(bx, by, bz)));
+  float best = kReachSq;
+  for (int dz = kFrom; dz <= kTo; ++dz)
+    for (int dy = kFrom; dy <= kTo; ++dy)
+      for (int dx = kFrom; dx <= kTo; ++dx) {
         const Eigen::Vector3i voxel(x0 + dx, y0 + dy, z0 + dz);
         const float d2 = (voxel.cast<float>() - g).squaredNorm();
         if (d2 >= best) continue;
-        const ColourVoxel* c = coloured_voxel(volume, voxel);
-        if (c == nullptr) continue;
+        const ColourBlock* cb =
+            blocks[(voxel.z() >> 3) - first_block.z()][(voxel.y() >> 3) - first_block.y()]
+                  [(voxel.x() >> 3) - first_block.x()];
+        if (cb == nullptr) continue;
+        const ColourVoxel& c = cb->voxels[static_cast<std::size_t>(
+            voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
+        if (c.weight == 0) continue;
         best = d2;
-        out = {c->r, c->g, c->b};
+        out = {c.r, c.g, c.b};
       }
-  return best < 3.5f;
+  return best < kReachSq;
 }
 
 }  // namespace aoscan

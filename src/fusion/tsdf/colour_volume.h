@@ -102,7 +102,7 @@ class ColourVolume {
  public:
   /// The colour at world point `p` (metres): the mean of the coloured voxels among the eight
   /// around it, each weighted by its trilinear weight; when none of them is coloured, the nearest
-  /// coloured voxel of the 4^3 around it within sqrt(3.5) voxels; false when there is none.
+  /// coloured voxel within sqrt(8.5) voxels (2.9); false when there is none.
   bool sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rgb8& out) const;
 
   /// The colour block of TSDF block `index`, or nullptr when it has none.

@@ -119,6 +119,38 @@ TEST(ColourVolume, RegisteredColourIsExactOnTheSurface) {
   EXPECT_FALSE(f.colour.sample(f.volume, Eigen::Vector3f(0.0f, 0.0f, 0.5f), out));
 }
 
+/// Whether voxel `v` (integer voxel coordinates) of the fused volume has a colour.
+bool coloured(const Fused& f, const Eigen::Vector3i& v) {
+  const ColourBlock* cb = f.colour.block(f.volume.find_block({v.x() >> 3, v.y() >> 3, v.z() >> 3}));
+  return cb != nullptr &&
+         cb->voxels[static_cast<std::size_t>(voxel_index(v.x() & 7, v.y() & 7, v.z() & 7))].weight >
+             0;
+}
+
+TEST(ColourVolume, APointOffTheShellTakesTheNearestColourWithinReach) {
+  // A mesh vertex whose eight voxels have no colour (between two surfaces at a depth edge, or on
+  // a surface the colour frames missed) takes the nearest coloured voxel within sqrt(8.5) voxels.
+  Fused f;
+  const ColourCamera camera = ColourCamera::registered_to(kDepth);
+  fuse(f, camera, render_colour(camera));
+  const float vs = f.volume.voxel_size_m();
+  const int x = -26, y = 13;  // a voxel column left of the colour boundary, x = -0.2 m
+  int last = static_cast<int>(std::lround(kPlaneZ / vs));
+  while (coloured(f, {x, y, last + 1})) ++last;  // the shell's last coloured voxel behind the plane
+  ASSERT_TRUE(coloured(f, {x, y, last}));
+  Rgb8 out;
+  // 2.5 voxels beyond it (beyond the sqrt(3.5) voxels of the search before): its colour.
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(x * vs, y * vs, (last + 2.5f) * vs), out));
+  EXPECT_EQ(out, kLeft);
+  // 3 voxels beyond it: none within reach.
+  EXPECT_FALSE(f.colour.sample(f.volume, Eigen::Vector3f(x * vs, y * vs, (last + 3.0f) * vs), out));
+  // Right of the boundary (x = +0.2 m) the same: its colour. The 6^3 voxels searched around
+  // x = -26 and x = 26 span two blocks along x (-32..-25 and -24..-17; 24..31 and 16..23).
+  ASSERT_TRUE(coloured(f, {-x, y, last}));
+  ASSERT_TRUE(f.colour.sample(f.volume, Eigen::Vector3f(-x * vs, y * vs, (last + 2.5f) * vs), out));
+  EXPECT_EQ(out, kRight);
+}
+
 TEST(ColourVolume, UnregisteredColourCameraIsProjectedThroughItsCalibration) {
   Fused f;
   ColourCamera camera;
