@@ -1,6 +1,7 @@
 /// @file png_read.h
-/// @brief Reading 16-bit greyscale PNGs with libpng (depth maps: TUM RGB-D recordings, test
-/// frames); every failure is a one-line status naming the file.
+/// @brief Reading 16-bit greyscale PNGs (depth maps: TUM RGB-D recordings, test frames) with
+/// libdeflate for the common case and libpng for the rest; every failure is a one-line status
+/// naming the file.
 #pragma once
 
 #include <cstdint>
