@@ -133,6 +133,12 @@ const char* colour_name(int color_type) {
   }
 }
 
+/// A big-endian 32-bit number (PNG's chunk lengths, sizes and CRCs).
+std::uint32_t be32(const unsigned char* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         std::uint32_t{p[3]};
+}
+
 /// Walks the chunks after the signature up to IEND; false when a chunk's length runs past the end
 /// of the file. libpng allocates (and clears) a chunk's buffer from that length before it reads
 /// the data, so a 69-byte file claiming a 1.8 GB zTXt chunk would cost 1.8 GB before failing as
@@ -140,8 +146,7 @@ const char* colour_name(int color_type) {
 bool chunks_fit(const std::vector<unsigned char>& bytes) {
   std::size_t pos = 8;
   while (bytes.size() - pos >= 8) {
-    const std::uint64_t length = (std::uint64_t{bytes[pos]} << 24) | (bytes[pos + 1] << 16) |
-                                 (bytes[pos + 2] << 8) | bytes[pos + 3];
+    const std::uint64_t length = be32(bytes.data() + pos);
     if (length + 4 > bytes.size() - pos - 8) return false;  // the data and the CRC
     if (std::memcmp(bytes.data() + pos + 4, "IEND", 4) == 0) break;
     pos += 8 + length + 4;
@@ -167,11 +172,6 @@ int read_file(const std::string& path, std::vector<unsigned char>& bytes) {
   std::fclose(file);
   bytes.resize(used);  // never shrinks the capacity
   return error;
-}
-
-std::uint32_t be32(const unsigned char* p) {
-  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
-         std::uint32_t{p[3]};
 }
 
 /// The CRC of a chunk (over its type and data) equals the one stored after it.

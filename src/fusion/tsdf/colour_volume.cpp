@@ -271,15 +271,25 @@ ColourIntegrateStats ColourIntegration::finish() {
   return stats;
 }
 
-const ColourVoxel* ColourVolume::coloured_voxel(const TsdfVolume& volume,
-                                                const Eigen::Vector3i& voxel) const {
-  // Shifts and masks are floor division and remainder by kBlockSize for negative voxels too.
-  const ColourBlock* cb =
-      block(volume.find_block({voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3}));
+namespace {
+
+/// Voxel `voxel` (integer voxel coordinates) of colour block `cb` (the block holding it, or
+/// nullptr) when it has a colour, else nullptr. Masks are the remainder by kBlockSize for
+/// negative voxels too.
+const ColourVoxel* coloured_in(const ColourBlock* cb, const Eigen::Vector3i& voxel) {
   if (cb == nullptr) return nullptr;
   const ColourVoxel& c =
       cb->voxels[static_cast<std::size_t>(voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
   return c.weight > 0 ? &c : nullptr;
+}
+
+}  // namespace
+
+const ColourVoxel* ColourVolume::coloured_voxel(const TsdfVolume& volume,
+                                                const Eigen::Vector3i& voxel) const {
+  // Shifts are floor division by kBlockSize for negative voxels too.
+  return coloured_in(block(volume.find_block({voxel.x() >> 3, voxel.y() >> 3, voxel.z() >> 3})),
+                     voxel);
 }
 
 bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rgb8& out) const {
@@ -322,15 +332,13 @@ bool ColourVolume::sample(const TsdfVolume& volume, const Eigen::Vector3f& p, Rg
         const Eigen::Vector3i voxel(x0 + dx, y0 + dy, z0 + dz);
         const float d2 = (voxel.cast<float>() - g).squaredNorm();
         if (d2 >= best) continue;
-        const ColourBlock* cb =
+        const ColourVoxel* c = coloured_in(
             blocks[(voxel.z() >> 3) - first_block.z()][(voxel.y() >> 3) - first_block.y()]
-                  [(voxel.x() >> 3) - first_block.x()];
-        if (cb == nullptr) continue;
-        const ColourVoxel& c = cb->voxels[static_cast<std::size_t>(
-            voxel_index(voxel.x() & 7, voxel.y() & 7, voxel.z() & 7))];
-        if (c.weight == 0) continue;
+                  [(voxel.x() >> 3) - first_block.x()],
+            voxel);
+        if (c == nullptr) continue;
         best = d2;
-        out = {c.r, c.g, c.b};
+        out = {c->r, c->g, c->b};
       }
   return best < kReachSq;
 }
