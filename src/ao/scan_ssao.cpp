@@ -65,9 +65,10 @@ Eigen::Vector3f ssao_point(const RangeMap& map, const Image<float>* offset_m, in
   return p + (*offset_m)(x, y) * map.normals(x, y);
 }
 
-/// The unsmoothed SSAO of pixel (x, y).
+/// The unsmoothed SSAO of pixel (x, y). The sample disk is `stretch` times wider along the row
+/// than along the column (ScanCamera::row_stretch(y): a disk of as many metres both ways).
 float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<std::uint8_t>& kind,
-               const AoConfig& config, const SsaoPattern& pattern, int x, int y) {
+               const AoConfig& config, const SsaoPattern& pattern, int x, int y, float stretch) {
   const Eigen::Vector3f p = ssao_point(map, offset_m, x, y);
   const Eigen::Vector3f& n = map.normals(x, y);
   const ScanCamera& camera = map.camera;
@@ -90,7 +91,11 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
   for (int k = 0; k < pattern.samples; ++k) {
     const Eigen::Vector2f& o = pattern.offsets[cls * pattern.samples + k];
     int sx = 0, sy = 0;
-    if (!sample_pixel(kind, x, y, o.x() * radius_px, o.y() * radius_px, wrap, sx, sy)) continue;
+    // Near a pole at most half the map's width: the disk then reads the whole ring of latitude.
+    const float du = stretch == 1.0f ? o.x() * radius_px
+                                     : o.x() * std::min(radius_px * stretch,
+                                                        0.5f * static_cast<float>(camera.width));
+    if (!sample_pixel(kind, x, y, du, o.y() * radius_px, wrap, sx, sy)) continue;
     if (sx == x && sy == y) continue;
     const Eigen::Vector3f v = ssao_point(map, offset_m, sx, sy) - p;
     const float d2 = v.squaredNorm();
@@ -136,11 +141,13 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   });
   Image<float> raw(w, h, 1.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      const float stretch = static_cast<float>(map.camera.row_stretch(y));
       for (int x = 0; x < w; ++x)
         raw(x, y) = (kind(x, y) & kNormal) != 0
-                        ? pixel_ao(map, offset_m, kind, config, pattern, x, y)
+                        ? pixel_ao(map, offset_m, kind, config, pattern, x, y, stretch)
                         : 1.0f;
+    }
   });
   // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
   static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};

@@ -14,7 +14,9 @@ namespace aoscan {
 
 /// SSAO of every point of `map` (normals set): a screen-space disk of radius r_s *
 /// pixels_per_metre_at_1m() / depth pixels (the paper's simplification: one radius per depth,
-/// whatever the pixel's place in the map; an equirectangular map wraps in azimuth), sampled by
+/// whatever the pixel's place in the map; an equirectangular map wraps in azimuth, and off its
+/// equator the disk is ScanCamera::row_stretch() times wider along the row, at most half the
+/// map's width, so that it spans r_s both ways), sampled by
 /// make_ssao_pattern(config, pattern_index) at the nearest pixels (a sample in a hole of the map
 /// reads the neighbouring pixel it leans to: a cloud's Sec. 7 map holds a point in about half of
 /// its pixels); the sample terms of config.estimator as in compute_ssao() (paper, obscurance,

@@ -135,9 +135,20 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.wraps();
   const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
+  const int dense_radius = std::max(radius_px, kDenseNormalRadiusPx);
   // Each pixel reads only points and writes only its own normal: rows run in parallel.
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      // Off an equirectangular map's equator a row's pixels are narrower than its columns': the
+      // window widens along the row so that it spans as many metres both ways (on a row near a
+      // pole a square window is a strip of one ring of latitude, whose points lie nearly on a
+      // line and leave the plane to the noise).
+      const double stretch = map.camera.row_stretch(y);
+      const auto width_of = [&](int radius) {
+        if (stretch == 1.0) return radius;
+        return static_cast<int>(
+            std::min(std::lround(radius * stretch), static_cast<long>((w - 1) / 2)));
+      };
       for (int x = 0; x < w; ++x) {
         if (!map.has_point(x, y) || !fit(x, y)) continue;
         const Eigen::Vector3f& p = map.points(x, y);
@@ -160,26 +171,43 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
           outer += d * d.transpose();
           ++count;
         };
-        if (radius <= std::max(radius_px, kDenseNormalRadiusPx)) {
-          for (int dy = -radius; dy <= radius; ++dy)
-            for (int dx = -radius; dx <= radius; ++dx) add(dx, dy);
-        } else {  // a wide metric support: 7 x 7 pixels spread over it, a 7 x 7 window's cost
-          constexpr int k = kDenseNormalRadiusPx;
-          std::array<int, 2 * k + 1> offsets;
-          for (int i = -k; i <= k; ++i)
-            offsets[static_cast<std::size_t>(i + k)] =
-                static_cast<int>(std::lround(static_cast<double>(i * radius) / k));
-          for (const int dy : offsets)
-            for (const int dx : offsets) add(dx, dy);
-        }
-        for (int r = radius + 1; count < min_points && r <= max_radius; ++r) {
-          for (int d = -r; d <= r; ++d) {
-            add(d, -r);
-            add(d, r);
+        // The window's offsets along one axis: every pixel within `r`, or (a wide metric
+        // support) 7 spread evenly over it, so that a window costs at most 7 x 7 reads.
+        const auto axis = [&](int r, std::vector<int>& offsets) {
+          offsets.clear();
+          if (r <= dense_radius) {
+            for (int d = -r; d <= r; ++d) offsets.push_back(d);
+            return;
           }
-          for (int d = -r + 1; d <= r - 1; ++d) {
-            add(-r, d);
-            add(r, d);
+          constexpr int k = kDenseNormalRadiusPx;
+          for (int i = -k; i <= k; ++i)
+            offsets.push_back(static_cast<int>(std::lround(static_cast<double>(i * r) / k)));
+        };
+        thread_local std::vector<int> along_y, along_x;
+        const auto window = [&](int r) {
+          axis(r, along_y);
+          axis(width_of(r), along_x);
+          for (const int dy : along_y)
+            for (const int dx : along_x) add(dx, dy);
+        };
+        window(radius);
+        if (width_of(radius) == radius) {
+          for (int r = radius + 1; count < min_points && r <= max_radius; ++r) {
+            for (int d = -r; d <= r; ++d) {
+              add(d, -r);
+              add(d, r);
+            }
+            for (int d = -r + 1; d <= r - 1; ++d) {
+              add(-r, d);
+              add(r, d);
+            }
+          }
+        } else {  // a widened window grows as a whole, its width with its height
+          for (int r = radius + 1; count < min_points && r <= max_radius; ++r) {
+            sum.setZero();
+            outer.setZero();
+            count = 0;
+            window(r);
           }
         }
         if (count < 3) continue;
@@ -200,6 +228,7 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
         if (outputs.offset_m != nullptr)
           (*outputs.offset_m)(x, y) = static_cast<float>(n.cast<double>().dot(mean));
       }
+    }
   });
 }
 

@@ -71,7 +71,9 @@ long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
                            const std::vector<Eigen::Vector3f>& normals, RangeMap& map);
 
 /// Normals of the pixels whose normal is zero, by principal component analysis of the points in
-/// the (2 r + 1)^2 window around the pixel (the equirectangular map wraps in azimuth) whose depth
+/// the (2 r + 1)^2 window around the pixel (the equirectangular map wraps in azimuth, and off its
+/// equator the window is ScanCamera::row_stretch() times wider, at most the map's width, so that
+/// it spans as many metres along the row as along the column; it then grows as a whole) whose depth
 /// lies within max_jump_ratio times the pixel's depth of its own (the same surface, not the one
 /// across a depth discontinuity): the direction of least spread, oriented toward the scanner
 /// (Hoppe et al. 1992). r is radius_px, or more where support_m > 0: the pixels within support_m

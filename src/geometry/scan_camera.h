@@ -93,6 +93,14 @@ struct ScanCamera {
     if (projection == ScanProjection::kPinhole) return static_cast<float>(pinhole.fx);
     return static_cast<float>(width / (2.0 * M_PI));
   }
+  /// The pixels along row y that span as many metres as one pixel along a column there: 1 on a
+  /// pinhole map; 1 / cos(latitude) on an equirectangular one, whose rows shrink towards the
+  /// poles (a window or a sample disk of r pixels on the sphere of directions is r pixels high
+  /// and r * row_stretch(y) pixels wide).
+  double row_stretch(int y) const {
+    if (projection != ScanProjection::kEquirectangular) return 1.0;
+    return 1.0 / std::sin((y + 0.5) * M_PI / height);
+  }
   /// Whether the map wraps around in x (equirectangular: its columns are azimuths).
   bool wraps() const { return projection == ScanProjection::kEquirectangular; }
   /// True when the model is usable (positive size; a pinhole camera with valid intrinsics of the

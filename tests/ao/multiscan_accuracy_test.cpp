@@ -44,7 +44,7 @@ Accuracy measure(const AnalyticScene& scene, const std::vector<ScanAo>& scans,
   return {pearson_r(ssao, ref), pearson_r(multi, ref), ref.size()};
 }
 
-TEST(MultiScanAccuracy, ThreeNoisyLaserScansOfTheCornerBeatEachScansOwnSsao) {
+TEST(MultiScanAccuracy, ThreeNoisyLaserScansOfTheCornerImproveOnEachScansOwnSsao) {
 #if defined(AOSCAN_SANITIZED)
   GTEST_SKIP() << "an accuracy measurement at full resolution; too slow under the sanitizers";
 #endif
@@ -84,9 +84,12 @@ TEST(MultiScanAccuracy, ThreeNoisyLaserScansOfTheCornerBeatEachScansOwnSsao) {
   const Accuracy wb_3x3 = measure(scene, scans, mvao, config.t_max_m);
   std::printf("r at %zu points: per-scan SSAO %.4f; MVAO %.4f (without w_b %.4f, 3x3 %.4f)\n",
               with_wb.points, with_wb.ssao_r, with_wb.mvao_r, without_wb.mvao_r, wb_3x3.mvao_r);
-  // Measured: SSAO 0.633, MVAO 0.935, without w_b 0.901, 3 x 3 0.925.
-  EXPECT_GE(with_wb.mvao_r, 0.90);
-  EXPECT_GE(with_wb.mvao_r, with_wb.ssao_r + 0.05);
+  // Measured: SSAO 0.915, MVAO 0.950, without w_b 0.939, 3 x 3 0.939. Before the normals'
+  // windows and the SSAO's sample disks near the poles spanned as many metres along a row as along
+  // a column: SSAO 0.633, MVAO 0.935, without w_b 0.901, 3 x 3 0.925.
+  EXPECT_GE(with_wb.ssao_r, 0.90);
+  EXPECT_GE(with_wb.mvao_r, 0.94);
+  EXPECT_GE(with_wb.mvao_r, with_wb.ssao_r + 0.02);
   EXPECT_GT(with_wb.mvao_r, without_wb.mvao_r);
   EXPECT_GE(wb_3x3.mvao_r, 0.90);
 }

@@ -32,14 +32,17 @@ test::QualityRow three_corner_frames(test::QualityNoise noise) {
   return test::measure_mvao_quality(set, test::QualityOptions{});
 }
 
-TEST(MvaoQuality, ThreeLaserScansOfTheRoomMeetTheTarget) {
+TEST(MvaoQuality, ThreeLaserScansOfTheRoomClearTheRTargetAndSmoothTheirSeams) {
 #if defined(AOSCAN_SANITIZED)
   GTEST_SKIP() << "an accuracy measurement on three large scans; too slow under the sanitizers, "
                   "which run the same harness on the depth-camera set below";
 #endif
-  // 640 x 320 maps, 2 mm range noise, normals estimated from the points, the default AoConfig:
-  // the smallest maps of the three laser scans at which the r target holds with some margin
-  // (at 480 x 240 the MVAO reaches 0.918, at 560 x 280 0.932, SSAO + 0.046).
+  // 640 x 320 maps, 2 mm range noise, normals estimated from the points, the default AoConfig.
+  // Measured: SSAO 0.940, MVAO 0.958 (3x3 0.937, without w_b 0.954); step error 0.0185 with w_b,
+  // 0.0239 without, over 824 border pairs. Before the windows and sample disks near the poles
+  // spanned as many metres along a row as along a column, the SSAO was 0.874 and the MVAO 0.954:
+  // the scans' own errors near their poles, which the other scans averaged out, made most of the
+  // MVAO's lead over the SSAO (BENCHMARKS.md).
   test::QualitySet set;
   set.scene = "room";
   set.camera = test::QualityCamera::kEquirect;
@@ -47,12 +50,11 @@ TEST(MvaoQuality, ThreeLaserScansOfTheRoomMeetTheTarget) {
   set.equirect_height = 320;
   const test::QualityRow r = test::measure_mvao_quality(set, test::QualityOptions{});
   print(r);
-  // Measured: SSAO 0.874, MVAO 0.954 (3x3 0.936, without w_b 0.945); step error 0.0162 with w_b,
-  // 0.0222 without, over 1005 border pairs.
   EXPECT_GT(r.evaluated, 50000);
   EXPECT_GT(r.border_pairs, 500);
-  EXPECT_GE(r.mvao_r, 0.90);
-  EXPECT_GE(r.mvao_r, r.ssao_r + 0.05);
+  EXPECT_GE(r.ssao_r, 0.92);
+  EXPECT_GE(r.mvao_r, 0.94);
+  EXPECT_GE(r.mvao_r, r.ssao_r + 0.01);
   EXPECT_GE(r.mvao_3x3_r, 0.90);
   // w_b makes the MVAO's step across coverage borders closer to the reference's, and raises r
   // now that the range noise makes no edges (kBorderNoiseMedians; before it w_b cost 0.004 here).

@@ -19,6 +19,8 @@
 namespace aoscan {
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 /// Mean |a - b| over the pixels where `map` has a point and b is below `below`.
 double mean_abs_difference(const RangeMap& map, const Image<float>& a, const Image<float>& b,
                            float below) {
@@ -75,6 +77,54 @@ TEST(ScanSsao, SamplesFallingInHolesReadTheNeighbouringPoints) {
         EXPECT_EQ(ao_holed(x, y), 1.0f);  // no point, no AO
       }
     }
+}
+
+TEST(ScanSsao, APointsSsaoDoesNotDependOnWhereTheScannersPoleLooks) {
+  // A laser scanner 0.5 m above the corner scene's floor, 5 cm from the wall y = 0 (exact
+  // ranges and normals, 800 x 400). Scan A looks down with its pole: the floor and the crease
+  // below lie near the nadir, where a row's pixels are narrow. Scan B, at the same spot, is
+  // turned so that they lie near its equator. Each floor point near A's nadir is found in B, and
+  // its SSAO there compared with A's: the sample disk must span r_s along A's rows as along its
+  // columns, or A reads the crease's wall only in the narrow direction. Measured, mean |A - B|
+  // over the points with some occlusion in B (B < 0.97): 0.0884 with disks as many pixels wide
+  // as high, 0.0289 with the rows' stretch; two scans that both see the floor near their
+  // equator (B and B turned 90 degrees about its view) differ by 0.0127 (their pixel grids and
+  // sample patterns differ).
+  const AnalyticScene scene = AnalyticScene::make("corner");
+  const Eigen::Vector3d at(0.6, 0.05, 0.5);
+  Eigen::Matrix3d turned;
+  turned.col(0) = Eigen::Vector3d(0.0, 0.0, -1.0);  // B's x axis (its equator at phi = 0) down
+  turned.col(1) = Eigen::Vector3d(0.0, 1.0, 0.0);
+  turned.col(2) = Eigen::Vector3d(1.0, 0.0, 0.0);
+  const Pose pose_a(Eigen::Matrix3d::Identity(), at), pose_b(turned, at);
+  RangeMap a, b;
+  render_scan(scene, ScanCamera::make_equirectangular(400), pose_a, 0.01, 20.0, ScannerNoise{}, a);
+  render_scan(scene, ScanCamera::make_equirectangular(400), pose_b, 0.01, 20.0, ScannerNoise{}, b);
+  const AoConfig config;
+  Image<float> ao_a, ao_b;
+  compute_scan_ssao(a, config, 0, ao_a);
+  compute_scan_ssao(b, config, 0, ao_b);
+  const Pose b_from_a = pose_b.inverse() * pose_a;
+  double sum = 0.0;
+  long long compared = 0;
+  const double min_theta = kPi * (1.0 - 20.0 / 180.0);  // within 20 degrees of A's nadir
+  for (int y = 0; y < a.camera.height; ++y) {
+    if ((y + 0.5) * kPi / a.camera.height < min_theta) continue;
+    for (int x = 0; x < a.camera.width; ++x) {
+      if (!a.has_point(x, y)) continue;
+      const Eigen::Vector3f q = (b_from_a * a.points(x, y).cast<double>()).cast<float>();
+      int bx = 0, by = 0;
+      if (!b.camera.pixel_of(q, bx, by) || !b.has_point(bx, by)) continue;
+      if ((b.points(bx, by) - q).norm() > 0.005f || !(ao_b(bx, by) < 0.97f)) continue;
+      sum += std::abs(ao_a(x, y) - ao_b(bx, by));
+      ++compared;
+    }
+  }
+  const double mean = sum / static_cast<double>(std::max(compared, 1LL));
+  std::printf("%lld occluded points near A's nadir: mean |SSAO in A - SSAO in B| %.4f\n", compared,
+              mean);
+  EXPECT_GT(compared, 2000);
+  EXPECT_LT(mean, 0.045);
 }
 
 TEST(ScanSsao, TheSamplesOffsetsRoundAsLround) {

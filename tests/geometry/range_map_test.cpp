@@ -252,6 +252,63 @@ TEST(RangeMap, NormalsOfAFloorUnderALaserScannerPointUp) {
   EXPECT_EQ(with_normal, static_cast<int>(points.size()));
 }
 
+TEST(ScanCamera, RowStretchIsOneOverTheCosineOfTheLatitude) {
+  // Row y of a 2h x h map holds the directions at polar angle (y + 0.5) pi / h: its pixels are
+  // sin(theta) = cos(latitude) times as wide as its rows are high.
+  const ScanCamera e = ScanCamera::make_equirectangular(4);
+  EXPECT_DOUBLE_EQ(e.row_stretch(0), 1.0 / std::sin(kPi / 8.0));
+  EXPECT_DOUBLE_EQ(e.row_stretch(1), 1.0 / std::sin(3.0 * kPi / 8.0));
+  EXPECT_NEAR(e.row_stretch(2), e.row_stretch(1), 1e-12);
+  EXPECT_NEAR(e.row_stretch(3), e.row_stretch(0), 1e-12);
+  EXPECT_NEAR(ScanCamera::make_equirectangular(1001).row_stretch(500), 1.0, 1e-15);
+  Intrinsics k;
+  k.width = 64;
+  k.height = 48;
+  k.fx = k.fy = 50.0;
+  k.cx = 31.5;
+  k.cy = 23.5;
+  const ScanCamera pinhole = ScanCamera::make_pinhole(k);
+  for (int y : {0, 10, 47}) EXPECT_EQ(pinhole.row_stretch(y), 1.0);
+}
+
+TEST(RangeMap, NormalsNearAnEquirectangularPoleSpanTheirSupportAlongTheRing) {
+  // The floor 0.5 m below a laser scanner, 2 mm of range noise, an 800 x 400 map. Near the nadir
+  // a row's pixels are a few tenths of a millimetre wide: a window of as many pixels both ways
+  // (2 cm high) is a strip a few millimetres wide, its points nearly on a line whose plane the
+  // noise decides. Widened along the row to 2 cm, the fits find the floor. Measured within 25
+  // degrees of the nadir, normals within 10 degrees of up: 58.9 % with square windows, 100 %.
+  RangeMap map;
+  map.camera = ScanCamera::make_equirectangular(400);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<Eigen::Vector3f> points;
+  for (int y = 0; y < map.camera.height; ++y)
+    for (int x = 0; x < map.camera.width; ++x) {
+      const Eigen::Vector3d ray = map.camera.pixel_ray(x, y);
+      if (ray.z() > -0.3) continue;
+      const double t = -0.5 / ray.z() + noise(rng);
+      points.push_back((t * ray).cast<float>());
+    }
+  ASSERT_EQ(rasterize_points(points, {}, map), 0);
+  compute_scan_normals(map);
+  long long near_pole = 0, up = 0;
+  const double min_theta = kPi - 25.0 * kPi / 180.0;
+  for (int y = 0; y < map.camera.height; ++y) {
+    if ((y + 0.5) * kPi / map.camera.height < min_theta) continue;
+    for (int x = 0; x < map.camera.width; ++x) {
+      if (!map.has_point(x, y)) continue;
+      ++near_pole;
+      up += map.normals(x, y).z() > std::cos(10.0 * kPi / 180.0) ? 1 : 0;
+    }
+  }
+  const double share = static_cast<double>(up) / static_cast<double>(near_pole);
+  std::printf(
+      "within 25 degrees of the nadir: %lld points, normals within 10 degrees of up: %.1f %%\n",
+      near_pole, 100.0 * share);
+  EXPECT_GT(near_pole, 20000);
+  EXPECT_GT(share, 0.99);
+}
+
 TEST(RangeMap, NoNormalAcrossADepthJump) {
   const Intrinsics k{10, 4, 10.0, 10.0, 4.5, 1.5};
   Image<float> depth(10, 4, 1.0f);
