@@ -261,13 +261,7 @@ TEST(ScanCamera, RowStretchIsOneOverTheCosineOfTheLatitude) {
   EXPECT_NEAR(e.row_stretch(2), e.row_stretch(1), 1e-12);
   EXPECT_NEAR(e.row_stretch(3), e.row_stretch(0), 1e-12);
   EXPECT_NEAR(ScanCamera::make_equirectangular(1001).row_stretch(500), 1.0, 1e-15);
-  Intrinsics k;
-  k.width = 64;
-  k.height = 48;
-  k.fx = k.fy = 50.0;
-  k.cx = 31.5;
-  k.cy = 23.5;
-  const ScanCamera pinhole = ScanCamera::make_pinhole(k);
+  const ScanCamera pinhole = ScanCamera::make_pinhole(Intrinsics{64, 48, 50.0, 50.0, 31.5, 23.5});
   for (int y : {0, 10, 47}) EXPECT_EQ(pinhole.row_stretch(y), 1.0);
 }
 
