@@ -77,6 +77,11 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
   const float t_max = static_cast<float>(config.t_max_m);
   const float radius_px =
       std::min(radius_m * camera.pixels_per_metre_at_1m() / depth, kMaxRadiusPx);
+  // Along the row; near a pole at most half the map's width: the disk then reads the whole ring
+  // of latitude.
+  const float radius_u =
+      stretch == 1.0f ? radius_px
+                      : std::min(radius_px * stretch, 0.5f * static_cast<float>(camera.width));
   const AoEstimator estimator =
       pattern.estimator == AoEstimator::kPaper || pattern.estimator == AoEstimator::kAlchemy
           ? pattern.estimator
@@ -91,11 +96,7 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
   for (int k = 0; k < pattern.samples; ++k) {
     const Eigen::Vector2f& o = pattern.offsets[cls * pattern.samples + k];
     int sx = 0, sy = 0;
-    // Near a pole at most half the map's width: the disk then reads the whole ring of latitude.
-    const float du = stretch == 1.0f ? o.x() * radius_px
-                                     : o.x() * std::min(radius_px * stretch,
-                                                        0.5f * static_cast<float>(camera.width));
-    if (!sample_pixel(kind, x, y, du, o.y() * radius_px, wrap, sx, sy)) continue;
+    if (!sample_pixel(kind, x, y, o.x() * radius_u, o.y() * radius_px, wrap, sx, sy)) continue;
     if (sx == x && sy == y) continue;
     const Eigen::Vector3f v = ssao_point(map, offset_m, sx, sy) - p;
     const float d2 = v.squaredNorm();
