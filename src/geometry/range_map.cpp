@@ -119,6 +119,30 @@ int window_radius(const ScanCamera& camera, float depth_m, float support_m, int 
                                                   : static_cast<int>(std::ceil(pixels));
 }
 
+/// The offsets of a fit window along one axis for radius r: every pixel within r, or (a wide
+/// metric support, r > dense_radius) 7 spread evenly over it, so that a window costs at most 7 x 7
+/// reads. Rebuilt only when r changes.
+class WindowAxis {
+ public:
+  const std::vector<int>& offsets(int r, int dense_radius) {
+    if (r == r_) return offsets_;
+    r_ = r;
+    offsets_.clear();
+    if (r <= dense_radius) {
+      for (int d = -r; d <= r; ++d) offsets_.push_back(d);
+    } else {
+      constexpr int k = kDenseNormalRadiusPx;
+      for (int i = -k; i <= k; ++i)
+        offsets_.push_back(static_cast<int>(std::lround(static_cast<double>(i * r) / k)));
+    }
+    return offsets_;
+  }
+
+ private:
+  int r_ = -1;
+  std::vector<int> offsets_;
+};
+
 /// fit_normals()'s choice of the pixels that have no normal yet.
 auto without_normal(const RangeMap& map) {
   return [&map](int x, int y) {
@@ -138,6 +162,7 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
   const int dense_radius = std::max(radius_px, kDenseNormalRadiusPx);
   // Each pixel reads only points and writes only its own normal: rows run in parallel.
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    WindowAxis along_y, along_x;
     for (int y = rows.begin(); y < rows.end(); ++y) {
       // Off an equirectangular map's equator a row's pixels are narrower than its columns': the
       // window widens along the row so that it spans as many metres both ways (on a row near a
@@ -171,24 +196,9 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
           outer += d * d.transpose();
           ++count;
         };
-        // The window's offsets along one axis: every pixel within `r`, or (a wide metric
-        // support) 7 spread evenly over it, so that a window costs at most 7 x 7 reads.
-        const auto axis = [&](int r, std::vector<int>& offsets) {
-          offsets.clear();
-          if (r <= dense_radius) {
-            for (int d = -r; d <= r; ++d) offsets.push_back(d);
-            return;
-          }
-          constexpr int k = kDenseNormalRadiusPx;
-          for (int i = -k; i <= k; ++i)
-            offsets.push_back(static_cast<int>(std::lround(static_cast<double>(i * r) / k)));
-        };
-        thread_local std::vector<int> along_y, along_x;
         const auto window = [&](int r) {
-          axis(r, along_y);
-          axis(width_of(r), along_x);
-          for (const int dy : along_y)
-            for (const int dx : along_x) add(dx, dy);
+          for (const int dy : along_y.offsets(r, dense_radius))
+            for (const int dx : along_x.offsets(width_of(r), dense_radius)) add(dx, dy);
         };
         window(radius);
         if (width_of(radius) == radius) {
