@@ -28,18 +28,19 @@ struct BorderStats {
 };
 
 /// d_b of Eq. 12 for every pixel of `map`: the Laplacian |4 D(x, y) - sum of the 4 neighbours| of
-/// the map's depth D (a pixel without a point, or outside the map, reads 0, so holes and the map's
-/// edge are borders; an equirectangular map wraps in azimuth) but for dropouts: a pixel without a
-/// point that has one within kDropoutRadiusPx on both sides along its row or its column, or one
-/// diagonally beside it on both sides (which takes in the corners of a 3 x 3 hole), such as a
-/// depth camera's missed returns at grazing incidence or the gaps of a cloud rebuilt into a map,
-/// reads the depth of the pixel beside it, the scan covering the surface around it; edges are the
-/// pixels with a point whose Laplacian reaches the 0.95 percentile of the Laplacian over the
-/// pixels with a point (nearest rank) and kBorderNoiseMedians times its median, and exceeds
+/// the map's depth D (a pixel without a point, or outside the map, reads 0, so holes and a pinhole
+/// map's edge are borders; an equirectangular map has no edge: it wraps in azimuth and across its
+/// poles, onto_map(); its distances are measured on the map, not across a pole) but for dropouts: a
+/// pixel without a point that has one within kDropoutRadiusPx on both sides along its row or its
+/// column, or one diagonally beside it on both sides (which takes in the corners of a 3 x 3 hole),
+/// such as a depth camera's missed returns at grazing incidence or the gaps of a cloud rebuilt into
+/// a map, reads the depth of the pixel beside it, the scan covering the surface around it; edges
+/// are the pixels with a point whose Laplacian reaches the 0.95 percentile of the Laplacian over
+/// the pixels with a point (nearest rank) and kBorderNoiseMedians times its median, and exceeds
 /// min_edge_ratio times their own depth (both floors keep the noise of a smooth surface from being
-/// taken as its "most valuable borders": the depth floor when the scan has no real
-/// discontinuity, the median's when the range noise is larger than it); then the jump-flooding
-/// distance to the nearest edge, in pixels. Pixels without a point get 0.
+/// taken as its "most valuable borders": the depth floor when the scan has no real discontinuity,
+/// the median's when the range noise is larger than it); then the jump-flooding distance to the
+/// nearest edge, in pixels. Pixels without a point get 0.
 BorderStats border_distance(const RangeMap& map, float min_edge_ratio, Image<float>& distance_px);
 
 /// How far (pixels) border_distance() looks on each side of a missing point for the points that

@@ -40,7 +40,7 @@ void add_samples(const ScanAo& scan_j, const MvaoSamples& samples, const PairFra
   for (int dy = -half; dy <= half; ++dy)
     for (int dx = -half; dx <= half; ++dx) {
       int x = px + dx;
-      const int y = py + dy;
+      int y = py + dy;
       if (!onto_map(x, y, map.camera.width, map.camera.height, wrap)) continue;
       const MvaoSamples::Sample& s = samples(x, y);
       if (!(s.weight > 0.0f)) continue;  // no point there, or a weight of 0
@@ -111,7 +111,7 @@ bool corresponding_pixel_at(const RangeMap& map_j, const Eigen::Vector3f& q, flo
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         int x = px + dx;
-        const int y = py + dy;
+        int y = py + dy;
         if (!onto_map(x, y, w, h, wrap) || !map_j.has_point(x, y)) continue;
         const float d2 = (map_j.points(x, y) - q).squaredNorm();
         if (d2 < best) {

@@ -187,7 +187,7 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
         int count = 0;
         const auto add = [&](int dx, int dy) {
           int sx = x + dx;
-          const int sy = y + dy;
+          int sy = y + dy;
           if (!onto_map(sx, sy, w, h, wrap) || !map.has_point(sx, sy)) return;
           const Eigen::Vector3f& q = map.points(sx, sy);
           if (std::abs(map.camera.depth(q) - depth) > max_jump_ratio * depth) return;

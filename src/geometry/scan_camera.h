@@ -34,11 +34,20 @@ inline int wrap_column(int x, int width) {
   return x;
 }
 
-/// Moves pixel (x, y) of a map of width x height pixels, which may lie off it, onto it: across the
-/// seam when the map wraps around in x (`wrap`, ScanCamera::wraps()). False where (x, y) is off
-/// the map all the same (above or below it, or beside a map that does not wrap).
-inline bool onto_map(int& x, int y, int width, int height, bool wrap) {
-  if (wrap) x = wrap_column(x, width);
+/// Moves pixel (x, y) of a map of width x height pixels, which may lie off it, onto it when the
+/// map covers the whole sphere of directions (`wrap`, ScanCamera::wraps(): an equirectangular
+/// map, 2h x h): across the seam in x, and across a pole, where the row k past the map's top or
+/// bottom edge is row k from that edge on the opposite azimuth (x + width / 2). Pixels at most a
+/// height above or below the map. False where (x, y) is off the map all the same (beside or
+/// above a map that does not wrap).
+inline bool onto_map(int& x, int& y, int width, int height, bool wrap) {
+  if (wrap) {
+    if (y < 0 || y >= height) {
+      y = y < 0 ? -1 - y : 2 * height - 1 - y;
+      x += width / 2;
+    }
+    x = wrap_column(x, width);
+  }
   return x >= 0 && y >= 0 && x < width && y < height;
 }
 

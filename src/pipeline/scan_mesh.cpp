@@ -170,7 +170,7 @@ TriangleMesh mesh_scans(int count, const std::function<std::shared_ptr<const Sca
             for (int dy = -1; dy <= 1; ++dy)
               for (int dx = -1; dx <= 1; ++dx) {
                 int x = px + dx;
-                const int y = py + dy;
+                int y = py + dy;
                 if (!onto_map(x, y, map.camera.width, map.camera.height, wrap) ||
                     !map.has_point(x, y))
                   continue;

@@ -4,10 +4,14 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
+
+#include "sim/synth_scanner.h"
+#include "sim/synth_scene.h"
 
 namespace aoscan {
 namespace {
@@ -176,6 +180,33 @@ TEST(BorderDistance, RangeNoiseAboveTheDepthFloorMakesNoEdges) {
   EXPECT_FLOAT_EQ(d(40, 60), 39.0f);  // 40 from the left edge, 39 from column 79
   EXPECT_FLOAT_EQ(d(79, 60), 0.0f);
   EXPECT_FLOAT_EQ(d(80, 60), 0.0f);
+}
+
+TEST(BorderDistance, AnEquirectangularMapsPolesAreNoBorders) {
+  // A 800 x 400 laser map from the middle of the closed room, 1.5 m above its floor and 1.1 m
+  // below its ceiling (exact ranges). Its first and last rows are the rings around the zenith and
+  // the nadir: the sphere goes on across the pole, on the opposite azimuth, so they are no edge
+  // of the scan's coverage. The floor's nearest border is the sphere resting on it (68 px from
+  // the nadir's ring) and the ceiling's its creases with the walls (136 px from the zenith's). Read
+  // as outside the map, the rows beyond the poles made every pixel of the first and last rows an
+  // edge (distance 0).
+  const AnalyticScene scene = AnalyticScene::make("room");
+  const Pose pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(2.0, 2.0, 1.5));
+  RangeMap map;
+  render_scan(scene, ScanCamera::make_equirectangular(400), pose, 0.01, 20.0, ScannerNoise{}, map);
+  Image<float> d;
+  border_distance(map, 0.01f, d);
+  const int w = map.camera.width, h = map.camera.height;
+  float zenith = std::numeric_limits<float>::infinity(), nadir = zenith;
+  for (int x = 0; x < w; ++x) {
+    ASSERT_TRUE(map.has_point(x, 0) && map.has_point(x, h - 1)) << x;
+    zenith = std::min(zenith, d(x, 0));
+    nadir = std::min(nadir, d(x, h - 1));
+  }
+  std::printf("nearest border: %.1f px from the zenith's ring, %.1f px from the nadir's\n", zenith,
+              nadir);
+  EXPECT_GE(zenith, 40.0f);
+  EXPECT_GE(nadir, 40.0f);
 }
 
 }  // namespace
