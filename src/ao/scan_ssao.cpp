@@ -31,22 +31,17 @@ constexpr std::uint8_t kNormal = 2;
 /// along the axis it leans to more, then the other axis, then the diagonal. A map rebuilt from
 /// a cloud (Sec. 7) holds a point in about half of its pixels; without this a sample falling
 /// between two points would be lost and the pixel's AO rest on half of its samples. False when
-/// the sample leaves the map (a pinhole map's sides, either map's top and bottom) or none of
-/// those pixels has a point. Unlike the other neighbourhoods of a map, the disk does not cross
-/// an equirectangular map's pole (onto_map()): it is laid out in the map's rows and columns,
-/// whose chart is singular there, and its samples past the pole would bunch around the pole
-/// instead of lying r_s away (ScanSsao.APointsSsaoDoesNotDependOnWhereTheScannersPoleLooks:
-/// 0.0289 without crossing, 0.0422 with it).
+/// the sample leaves a pinhole map (an equirectangular one has no edge: onto_map()) or none of
+/// those pixels has a point.
 bool sample_pixel(const Image<std::uint8_t>& kind, int x, int y, float du, float dv, bool wrap,
                   int& sx, int& sy) {
   const int w = kind.width(), h = kind.height();
   const long iu = round_half_away(du), iv = round_half_away(dv);
   int x0 = x + static_cast<int>(iu);
   int y0 = y + static_cast<int>(iv);
-  if (y0 < 0 || y0 >= h || !onto_map(x0, y0, w, h, wrap)) return false;
+  if (!onto_map(x0, y0, w, h, wrap)) return false;
   auto take = [&](int cx, int cy) {
-    if (cy < 0 || cy >= h || !onto_map(cx, cy, w, h, wrap) || (kind(cx, cy) & kPoint) == 0)
-      return false;
+    if (!onto_map(cx, cy, w, h, wrap) || (kind(cx, cy) & kPoint) == 0) return false;
     sx = cx;
     sy = cy;
     return true;
@@ -70,10 +65,13 @@ Eigen::Vector3f ssao_point(const RangeMap& map, const Image<float>* offset_m, in
   return p + (*offset_m)(x, y) * map.normals(x, y);
 }
 
-/// The unsmoothed SSAO of pixel (x, y). The sample disk is `stretch` times wider along the row
-/// than along the column (ScanCamera::row_stretch(y): a disk of as many metres both ways).
+/// The unsmoothed SSAO of pixel (x, y). On an equirectangular map (`sphere`, its row y) the sample
+/// disk is laid across the view ray and projected into the map (ScanCamera::SphereRow::offsets()),
+/// so that it spans as many metres along the row as along the column at any latitude and reaches
+/// across a pole; on a pinhole map (`sphere` null) it is the image plane's disk of radius_px.
 float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<std::uint8_t>& kind,
-               const AoConfig& config, const SsaoPattern& pattern, int x, int y, float stretch) {
+               const AoConfig& config, const SsaoPattern& pattern, int x, int y,
+               const ScanCamera::SphereRow* sphere) {
   const Eigen::Vector3f p = ssao_point(map, offset_m, x, y);
   const Eigen::Vector3f& n = map.normals(x, y);
   const ScanCamera& camera = map.camera;
@@ -82,11 +80,9 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
   const float t_max = static_cast<float>(config.t_max_m);
   const float radius_px =
       std::min(radius_m * camera.pixels_per_metre_at_1m() / depth, kMaxRadiusPx);
-  // Along the row; near a pole at most half the map's width: the disk then reads the whole ring
-  // of latitude.
-  const float radius_u =
-      stretch == 1.0f ? radius_px
-                      : std::min(radius_px * stretch, 0.5f * static_cast<float>(camera.width));
+  // The disk's radius on the plane across the ray at distance 1 (radius_px in radians of the
+  // sphere of directions at the equator).
+  const float tangent = radius_px / camera.pixels_per_metre_at_1m();
   const AoEstimator estimator =
       pattern.estimator == AoEstimator::kPaper || pattern.estimator == AoEstimator::kAlchemy
           ? pattern.estimator
@@ -98,10 +94,26 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
   const bool wrap = camera.wraps();
   float sum = 0.0f;
   int counted = 0;
+  // The samples' offsets (pixels), a batch at a time.
+  constexpr int kBatch = 16;
+  std::array<float, kBatch> du, dv;
+  const Eigen::Vector2f* offsets =
+      &pattern.offsets[static_cast<std::size_t>(cls * pattern.samples)];
   for (int k = 0; k < pattern.samples; ++k) {
-    const Eigen::Vector2f& o = pattern.offsets[cls * pattern.samples + k];
+    const int j = k % kBatch;
+    if (j == 0) {
+      const int n = std::min(kBatch, pattern.samples - k);
+      if (sphere != nullptr) {
+        sphere->offsets(tangent, offsets + k, n, du.data(), dv.data());
+      } else {
+        for (int b = 0; b < n; ++b) {
+          du[b] = offsets[k + b].x() * radius_px;
+          dv[b] = offsets[k + b].y() * radius_px;
+        }
+      }
+    }
     int sx = 0, sy = 0;
-    if (!sample_pixel(kind, x, y, o.x() * radius_u, o.y() * radius_px, wrap, sx, sy)) continue;
+    if (!sample_pixel(kind, x, y, du[j], dv[j], wrap, sx, sy)) continue;
     if (sx == x && sy == y) continue;
     const Eigen::Vector3f v = ssao_point(map, offset_m, sx, sy) - p;
     const float d2 = v.squaredNorm();
@@ -148,10 +160,13 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   Image<float> raw(w, h, 1.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y) {
-      const float stretch = static_cast<float>(map.camera.row_stretch(y));
+      const bool wraps = map.camera.wraps();
+      const ScanCamera::SphereRow sphere =
+          wraps ? map.camera.sphere_row(y) : ScanCamera::SphereRow{};
+      const ScanCamera::SphereRow* row = wraps ? &sphere : nullptr;
       for (int x = 0; x < w; ++x)
         raw(x, y) = (kind(x, y) & kNormal) != 0
-                        ? pixel_ao(map, offset_m, kind, config, pattern, x, y, stretch)
+                        ? pixel_ao(map, offset_m, kind, config, pattern, x, y, row)
                         : 1.0f;
     }
   });

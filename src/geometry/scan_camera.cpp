@@ -144,6 +144,32 @@ void ScanCamera::pixels_of(const float* xs, const float* ys, const float* zs, in
   }
 }
 
+ScanCamera::SphereRow ScanCamera::sphere_row(int y) const {
+  SphereRow row;
+  const double theta = (y + 0.5) * kPi / height;
+  row.sin_theta = static_cast<float>(std::sin(theta));
+  row.cos_theta = static_cast<float>(std::cos(theta));
+  row.v_centre = static_cast<float>(y + 0.5);
+  row.u_scale = static_cast<float>(width / (2.0 * kPi));
+  row.v_scale = static_cast<float>(height / kPi);
+  return row;
+}
+
+void ScanCamera::SphereRow::offsets(float tangent, const Eigen::Vector2f* o, int n, float* du,
+                                    float* dv) const {
+  for (int k = 0; k < n; ++k) {
+    // The direction in the frame of the row's azimuth 0: the centre's (sin_theta, 0, cos_theta)
+    // plus the offset along the unit vectors of azimuth (0, 1, 0) and polar angle
+    // (cos_theta, 0, -sin_theta).
+    const float ox = o[k].x(), oy = o[k].y();
+    const float x = sin_theta + tangent * oy * cos_theta;
+    const float y = tangent * ox;
+    const float z = cos_theta - tangent * oy * sin_theta;
+    du[k] = atan2_poly(y, x) * u_scale;
+    dv[k] = atan2_poly(std::sqrt(x * x + y * y), z) * v_scale - v_centre;
+  }
+}
+
 bool ScanCamera::valid() const {
   if (width <= 0 || height <= 0) return false;
   if (projection == ScanProjection::kEquirectangular) return width == 2 * height;

@@ -104,12 +104,30 @@ struct ScanCamera {
   }
   /// The pixels along row y that span as many metres as one pixel along a column there: 1 on a
   /// pinhole map; 1 / cos(latitude) on an equirectangular one, whose rows shrink towards the
-  /// poles (a window or a sample disk of r pixels on the sphere of directions is r pixels high
-  /// and r * row_stretch(y) pixels wide).
+  /// poles (a window of r pixels on the sphere of directions is r pixels high and
+  /// r * row_stretch(y) pixels wide).
   double row_stretch(int y) const {
     if (projection != ScanProjection::kEquirectangular) return 1.0;
     return 1.0 / std::sin((y + 0.5) * M_PI / height);
   }
+  /// One row of an equirectangular map on the sphere of directions, for laying out a disk of
+  /// metres around its pixels (sphere_row()).
+  struct SphereRow {
+    float sin_theta = 1.0f, cos_theta = 0.0f;  ///< the polar angle of the row's pixel centres
+    float v_centre = 0.5f;                     ///< their v: y + 0.5
+    float u_scale = 0.0f, v_scale = 0.0f;      ///< pixels per radian of azimuth and polar angle
+    /// (du[k], dv[k]): pixels from a pixel centre of the row to the map coordinates of the
+    /// direction to the point `tangent` * o[k] away from the centre's direction on the plane
+    /// across it at distance 1 (o[k].x() eastward, along the row; o[k].y() southward, along the
+    /// column), k < n: the SSAO disk of radius r_s around a point at depth d, with tangent =
+    /// r_s / d, as a pinhole image lays it on its image plane. Independent of the column (the
+    /// map is the same at every azimuth); where the disk reaches past a pole, du is about half
+    /// the map's width and dv turns back. Arctangents of a few float ulp, in a loop that the
+    /// compiler vectorises.
+    void offsets(float tangent, const Eigen::Vector2f* o, int n, float* du, float* dv) const;
+  };
+  /// Row y of an equirectangular map (its pixel centres' polar angle (y + 0.5) pi / height).
+  SphereRow sphere_row(int y) const;
   /// Whether the map wraps around in x (equirectangular: its columns are azimuths).
   bool wraps() const { return projection == ScanProjection::kEquirectangular; }
   /// True when the model is usable (positive size; a pinhole camera with valid intrinsics of the
