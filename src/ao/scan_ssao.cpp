@@ -80,8 +80,8 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
   const float t_max = static_cast<float>(config.t_max_m);
   const float radius_px =
       std::min(radius_m * camera.pixels_per_metre_at_1m() / depth, kMaxRadiusPx);
-  // The disk's radius on the plane across the ray at distance 1 (radius_px in radians of the
-  // sphere of directions at the equator).
+  // The disk's radius on the plane across the ray at distance 1: r_s / depth, less where
+  // radius_px is capped.
   const float tangent = radius_px / camera.pixels_per_metre_at_1m();
   const AoEstimator estimator =
       pattern.estimator == AoEstimator::kPaper || pattern.estimator == AoEstimator::kAlchemy
@@ -158,12 +158,12 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
                                                (has_normal(map, x, y) ? kNormal : 0));
   });
   Image<float> raw(w, h, 1.0f);
+  const bool wrap = map.camera.wraps();
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y) {
-      const bool wraps = map.camera.wraps();
       const ScanCamera::SphereRow sphere =
-          wraps ? map.camera.sphere_row(y) : ScanCamera::SphereRow{};
-      const ScanCamera::SphereRow* row = wraps ? &sphere : nullptr;
+          wrap ? map.camera.sphere_row(y) : ScanCamera::SphereRow{};
+      const ScanCamera::SphereRow* row = wrap ? &sphere : nullptr;
       for (int x = 0; x < w; ++x)
         raw(x, y) = (kind(x, y) & kNormal) != 0
                         ? pixel_ao(map, offset_m, kind, config, pattern, x, y, row)
@@ -172,7 +172,6 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   });
   // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
   static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};
-  const bool wrap = map.camera.wraps();
   ao.resize(w, h, 1.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
