@@ -1,7 +1,9 @@
 // Tests for src/ao/jump_flood.cpp: jump flooding against the exact distance field, the azimuth
-// wrap of equirectangular maps, and the border distance d_b of range maps with known edges.
+// wrap of equirectangular maps, and the border distance d_b of range maps with known edges (an
+// equirectangular map's poles among them).
 #include "ao/jump_flood.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
