@@ -70,18 +70,18 @@ void range_map_from_depth(const Image<float>& depth_m, const Intrinsics& intrins
 long long rasterize_points(const std::vector<Eigen::Vector3f>& points,
                            const std::vector<Eigen::Vector3f>& normals, RangeMap& map);
 
-/// Normals of the pixels whose normal is zero, by principal component analysis of the points in
-/// the (2 r + 1)^2 window around the pixel (the equirectangular map wraps in azimuth, and off its
-/// equator the window is ScanCamera::row_stretch() times wider, at most the map's width, so that
-/// it spans as many metres along the row as along the column; it then grows as a whole) whose depth
-/// lies within max_jump_ratio times the pixel's depth of its own (the same surface, not the one
-/// across a depth discontinuity): the direction of least spread, oriented toward the scanner
-/// (Hoppe et al. 1992). r is radius_px, or more where support_m > 0: the pixels within support_m
-/// metres of the point (point_radius() at its depth; past kDenseNormalRadiusPx, 7 x 7 pixels
-/// spread over the window); then, while fewer than min_points points qualify, one pixel more (the
-/// paper uses the 16 nearest points; a map rebuilt from a cloud has holes between them); r stays
-/// within max(radius_px, kMaxNormalRadiusPx). No normal where fewer than three points qualify or
-/// they lie on a line. Rows run in parallel; the result does not depend on the thread
+/// Normals of the pixels whose normal is zero, by principal component analysis of the points in the
+/// (2 r + 1)^2 window around the pixel (the equirectangular map wraps in azimuth and across its
+/// poles, onto_map(), and off its equator the window is ScanCamera::row_stretch() times wider, at
+/// most the map's width, so that it spans as many metres along the row as along the column; it then
+/// grows as a whole) whose depth lies within max_jump_ratio times the pixel's depth of its own (the
+/// same surface, not the one across a depth discontinuity): the direction of least spread, oriented
+/// toward the scanner (Hoppe et al. 1992). r is radius_px, or more where support_m > 0: the pixels
+/// within support_m metres of the point (point_radius() at its depth; past kDenseNormalRadiusPx, 7
+/// x 7 pixels spread over the window); then, while fewer than min_points points qualify, one pixel
+/// more (the paper uses the 16 nearest points; a map rebuilt from a cloud has holes between them);
+/// r stays within max(radius_px, kMaxNormalRadiusPx). No normal where fewer than three points
+/// qualify or they lie on a line. Rows run in parallel; the result does not depend on the thread
 /// count.
 void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int radius_px = 2,
                                float support_m = 0.0f, int min_points = 0);

@@ -289,12 +289,12 @@ TEST(ScanCamera, OntoMapCrossesTheSeamAndThePolesOfAnEquirectangularMap) {
 }
 
 TEST(ScanCamera, SphereRowOffsetsProjectADiskAcrossTheViewRay) {
-  // The reference in double precision: the direction through pixel (x, y)'s centre plus
-  // tangent * (ox east + oy south), projected by project(), its u and v less the centre's (u
-  // taken across the seam the short way). The offsets' arctangents are polynomials of a few
-  // float ulp: within 5e-4 pixels of it on an 800 x 400 map (measured 8.1e-5), at every latitude
-  // (the rows next to the poles included, where the disk reaches across them) and for tangents of
-  // 0.005 (r_s = 0.1 m at 20 m) to 1.
+  // The reference in double precision: the direction through pixel (x, y)'s centre (pixel_ray())
+  // plus tangent * (ox east + oy south), its azimuth and polar angle by std::atan2 as map
+  // coordinates, less the centre's (u taken across the seam the short way). The offsets'
+  // arctangents are polynomials of a few float ulp: within 5e-4 pixels of it on an 800 x 400 map
+  // (measured 8.1e-5), at every latitude (the rows next to the poles included, where the disk
+  // reaches across them) and for tangents of 0.005 (r_s = 0.1 m at 20 m) to 1.
   const ScanCamera camera = ScanCamera::make_equirectangular(400);
   const int w = camera.width, h = camera.height;
   std::mt19937 rng(5);
@@ -312,12 +312,9 @@ TEST(ScanCamera, SphereRowOffsetsProjectADiskAcrossTheViewRay) {
       std::vector<float> du(o.size()), dv(o.size());
       row.offsets(tangent, o.data(), static_cast<int>(o.size()), du.data(), dv.data());
       for (int x : {0, 123, 799}) {
-        const double phi = (x + 0.5) / w * 2.0 * kPi - kPi, theta = (y + 0.5) / h * kPi;
-        const Eigen::Vector3d ray(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                                  std::cos(theta));
-        const Eigen::Vector3d east(-std::sin(phi), std::cos(phi), 0.0);
-        const Eigen::Vector3d south(std::cos(theta) * std::cos(phi),
-                                    std::cos(theta) * std::sin(phi), -std::sin(theta));
+        const Eigen::Vector3d ray = camera.pixel_ray(x, y);
+        const Eigen::Vector3d east = Eigen::Vector3d::UnitZ().cross(ray).normalized();
+        const Eigen::Vector3d south = east.cross(ray);
         for (std::size_t k = 0; k < o.size(); ++k) {
           const Eigen::Vector3d d = ray + tangent * (o[k].x() * east + o[k].y() * south);
           const double u = (std::atan2(d.y(), d.x()) + kPi) / (2.0 * kPi) * w;
