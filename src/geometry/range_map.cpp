@@ -153,9 +153,16 @@ auto without_normal(const RangeMap& map) {
 
 /// compute_range_map_normals() of the pixels with a point for which fit(x, y) holds, with the
 /// support given per depth: support_of(depth) metres. A pixel whose fit fails keeps its normal.
+/// With `crease_noise`, a window whose points spread along its normal by more than
+/// kCreaseSpreadFactor times that noise at the pixel's depth straddles a crease or an edge: the
+/// four windows of the same size shifted by their radius along the row and the column (the pixel
+/// on their edge) are fitted too, and the fit kept is the one whose spread plus the square of the
+/// pixel's own distance to its plane is the least (a window on one side of a crease holds a
+/// plane, and that plane is the pixel's when the pixel lies on it).
 template <typename Fit, typename SupportOf>
 void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius_px,
-                 const SupportOf& support_of, int min_points, const PlaneFitOutputs& outputs) {
+                 const SupportOf& support_of, int min_points, const PlaneFitOutputs& outputs,
+                 const ScanNoise* crease_noise = nullptr) {
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.wraps();
   const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
@@ -196,11 +203,12 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
           outer += d * d.transpose();
           ++count;
         };
-        const auto window = [&](int r) {
+        // The window of radius r centred (ox, oy) pixels from p.
+        const auto window = [&](int r, int ox, int oy) {
           for (const int dy : along_y.offsets(r, dense_radius))
-            for (const int dx : along_x.offsets(width_of(r), dense_radius)) add(dx, dy);
+            for (const int dx : along_x.offsets(width_of(r), dense_radius)) add(dx + ox, dy + oy);
         };
-        window(radius);
+        window(radius, 0, 0);
         if (width_of(radius) == radius) {
           for (int r = radius + 1; count < min_points && r <= max_radius; ++r) {
             for (int d = -r; d <= r; ++d) {
@@ -217,17 +225,46 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
             sum.setZero();
             outer.setZero();
             count = 0;
-            window(r);
+            window(r, 0, 0);
           }
         }
-        if (count < 3) continue;
-        const Eigen::Vector3d mean = sum / count;
-        const Eigen::Matrix3d covariance = outer / count - mean * mean.transpose();
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
-        eigen.computeDirect(covariance);
-        const Eigen::Vector3d values = eigen.eigenvalues();  // ascending
-        // Points on a line (or one point) leave the plane undetermined.
-        if (!(values(1) > 1e-6 * values(2))) continue;
+        // The plane of the points gathered (their centroid `m`, relative to p): false when they
+        // are fewer than three or on a line, which leave it undetermined.
+        using Solver = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>;
+        const auto solve = [&](Solver& e, Eigen::Vector3d& m) {
+          if (count < 3) return false;
+          m = sum / count;
+          e.computeDirect(outer / count - m * m.transpose());
+          const Eigen::Vector3d& values = e.eigenvalues();  // ascending
+          return values(1) > 1e-6 * values(2);
+        };
+        Solver eigen;
+        Eigen::Vector3d mean;
+        if (!solve(eigen, mean)) continue;
+        if (crease_noise != nullptr) {
+          const double limit = kCreaseSpreadFactor * crease_noise->sigma(depth);
+          if (eigen.eigenvalues()(0) > limit * limit) {
+            const auto misfit = [](const Solver& e, const Eigen::Vector3d& m) {
+              const double offset = e.eigenvectors().col(0).dot(m);
+              return e.eigenvalues()(0) + offset * offset;
+            };
+            double best = misfit(eigen, mean);
+            static constexpr int kShifts[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+            for (const auto& shift : kShifts) {
+              sum.setZero();
+              outer.setZero();
+              count = 0;
+              window(radius, shift[0] * width_of(radius), shift[1] * radius);
+              Solver e;
+              Eigen::Vector3d m;
+              if (count < min_points || !solve(e, m) || !(misfit(e, m) < best)) continue;
+              best = misfit(e, m);
+              eigen = e;
+              mean = m;
+            }
+          }
+        }
+        const Eigen::Vector3d& values = eigen.eigenvalues();  // ascending
         Eigen::Vector3f c = eigen.eigenvectors().col(0).cast<float>();
         if (!c.allFinite()) continue;
         if (c.dot(p) > 0.0f) c = -c;
@@ -346,7 +383,7 @@ Image<float> compute_scan_normals(RangeMap& map) {
   if (!any) return {};
   Image<float> offset(w, h, 0.0f);
   fit_normals(map, widened, kScanNormalMaxJumpRatio, kRadiusPx, support, kScanNormalMinPoints,
-              PlaneFitOutputs{nullptr, &offset});
+              PlaneFitOutputs{nullptr, &offset}, &map.noise);
   return offset;
 }
 

@@ -100,11 +100,14 @@ inline constexpr int kDenseNormalRadiusPx = 3;
 /// eigenvalue), its median in bins of depth, is the noise sigma(depth); the pixels at depths where
 /// kNoiseSupportFactor * sigma exceeds kScanNormalSupportM are fitted over that many metres (a
 /// Kinect-class camera's noise grows with the square of the depth; a laser's few millimetres grow
-/// nothing); `map.noise` keeps sigma(depth). Returns, for those pixels, the signed distance (m)
-/// along the normal from the point to the plane fitted through its support (0 elsewhere): the point
-/// moved by it onto the plane is the surface without most of its noise (compute_scan_ssao() reads
-/// it). Returns an empty image when no pixel's support grew; the normals are then those of the
-/// first fit.
+/// nothing); `map.noise` keeps sigma(depth). Where such a wider window straddles a crease (its
+/// points spread along its normal by more than kCreaseSpreadFactor sigma), the windows beside the
+/// pixel are fitted too and the one whose plane fits the pixel and its points best is kept, so
+/// that a corner keeps its two faces instead of a plane cutting across it. Returns, for those
+/// pixels, the signed distance (m) along the normal from the point to the plane fitted through
+/// its support (0 elsewhere): the point moved by it onto the plane is the surface without most of
+/// its noise (compute_scan_ssao() reads it). Returns an empty image when no pixel's support grew;
+/// the normals are then those of the first fit.
 Image<float> compute_scan_normals(RangeMap& map);
 inline constexpr float kScanNormalSupportM = 0.02f;
 inline constexpr int kScanNormalMinPoints = 16;
@@ -112,6 +115,9 @@ inline constexpr int kScanNormalMinPoints = 16;
 inline constexpr float kScanNormalMaxJumpRatio = 0.05f;
 /// The support compute_scan_normals() gives a noisy scan, in multiples of its noise sigma.
 inline constexpr float kNoiseSupportFactor = 8.0f;
+/// compute_scan_normals()'s wider fits: a window whose points spread along its normal by more
+/// than this many noise sigmas straddles a crease, and the windows beside the pixel are tried.
+inline constexpr float kCreaseSpreadFactor = 2.0f;
 
 /// The radius of the surface patch one pixel of `camera` covers at `depth_m` (metres): the
 /// footprint depth / pixels_per_metre_at_1m(). The rad(p) of Eq. 12's alpha = rad(p_i) / rad(p_ij)

@@ -20,7 +20,7 @@ void smooth_model_normals_reference(const PointMaps& in, int radius_px, float ma
       out.normals(x, y) = smoothed_normal(in, x, y, std::max(radius_px, 0), max_distance_sq);
 }
 
-RangeMap noisy_plane_scan(const Eigen::Vector3f& normal, float offset,
+RangeMap noisy_depth_scan(const std::function<float(const Eigen::Vector3f&)>& depth_of_ray,
                           const std::function<float(float)>& sigma_of_z, unsigned seed) {
   const Intrinsics k{640, 480, 585.0, 585.0, 319.5, 239.5};
   std::mt19937 rng(seed);
@@ -30,12 +30,19 @@ RangeMap noisy_plane_scan(const Eigen::Vector3f& normal, float offset,
     for (int x = 0; x < k.width; ++x) {
       const Eigen::Vector3f ray(static_cast<float>((x - k.cx) / k.fx),
                                 static_cast<float>((y - k.cy) / k.fy), 1.0f);
-      const float z = -offset / normal.dot(ray);
+      const float z = depth_of_ray(ray);
       depth(x, y) = z + sigma_of_z(z) * noise(rng);
     }
   RangeMap map;
   range_map_from_depth(depth, k, map);
   return map;
+}
+
+RangeMap noisy_plane_scan(const Eigen::Vector3f& normal, float offset,
+                          const std::function<float(float)>& sigma_of_z, unsigned seed) {
+  return noisy_depth_scan(
+      [&normal, offset](const Eigen::Vector3f& ray) { return -offset / normal.dot(ray); },
+      sigma_of_z, seed);
 }
 
 }  // namespace aoscan
