@@ -152,7 +152,8 @@ auto without_normal(const RangeMap& map) {
 }
 
 /// compute_range_map_normals() of the pixels with a point for which fit(x, y) holds, with the
-/// support given per depth: support_of(depth) metres. A pixel whose fit fails keeps its normal.
+/// support given per depth: support_of(depth) metres, the window's radius at most
+/// max(radius_px, max_radius_px). A pixel whose fit fails keeps its normal.
 /// With `crease_noise`, a window whose points spread along its normal by more than
 /// kCreaseSpreadFactor times that noise at the pixel's depth straddles a crease or an edge: the
 /// four windows of the same size shifted by their radius along the row and the column (the pixel
@@ -162,10 +163,10 @@ auto without_normal(const RangeMap& map) {
 template <typename Fit, typename SupportOf>
 void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius_px,
                  const SupportOf& support_of, int min_points, const PlaneFitOutputs& outputs,
-                 const ScanNoise* crease_noise = nullptr) {
+                 int max_radius_px = kMaxNormalRadiusPx, const ScanNoise* crease_noise = nullptr) {
   const int w = map.points.width(), h = map.points.height();
   const bool wrap = map.camera.wraps();
-  const int max_radius = std::max(radius_px, kMaxNormalRadiusPx);
+  const int max_radius = std::max(radius_px, max_radius_px);
   const int dense_radius = std::max(radius_px, kDenseNormalRadiusPx);
   // Each pixel reads only points and writes only its own normal: rows run in parallel.
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -383,7 +384,7 @@ Image<float> compute_scan_normals(RangeMap& map) {
   if (!any) return {};
   Image<float> offset(w, h, 0.0f);
   fit_normals(map, widened, kScanNormalMaxJumpRatio, kRadiusPx, support, kScanNormalMinPoints,
-              PlaneFitOutputs{nullptr, &offset}, &map.noise);
+              PlaneFitOutputs{nullptr, &offset}, kMaxNoiseNormalRadiusPx, &map.noise);
   return offset;
 }
 

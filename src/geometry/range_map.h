@@ -88,6 +88,9 @@ void compute_range_map_normals(RangeMap& map, float max_jump_ratio = 0.05f, int 
 
 /// The largest window radius of compute_range_map_normals() (a 17 x 17 window).
 inline constexpr int kMaxNormalRadiusPx = 8;
+/// The largest window radius of compute_scan_normals()'s fits over a noisy scan's wider support
+/// (a 25 x 25 window, read at 7 x 7 pixels spread over it).
+inline constexpr int kMaxNoiseNormalRadiusPx = 12;
 /// compute_range_map_normals() reads every pixel of windows up to this radius (7 x 7) or radius_px;
 /// a wider metric support is read at 7 x 7 pixels spread evenly over it.
 inline constexpr int kDenseNormalRadiusPx = 3;
@@ -98,16 +101,16 @@ inline constexpr int kDenseNormalRadiusPx = 3;
 /// kScanNormalMinPoints points. Then, where the scan's own range noise is large, again over a
 /// wider support: the spread of the points along those normals (the root of each fit's least
 /// eigenvalue), its median in bins of depth, is the noise sigma(depth); the pixels at depths where
-/// kNoiseSupportFactor * sigma exceeds kScanNormalSupportM are fitted over that many metres (a
-/// Kinect-class camera's noise grows with the square of the depth; a laser's few millimetres grow
-/// nothing); `map.noise` keeps sigma(depth). Where such a wider window straddles a crease (its
-/// points spread along its normal by more than kCreaseSpreadFactor sigma), the windows beside the
-/// pixel are fitted too and the one whose plane fits the pixel and its points best is kept, so
-/// that a corner keeps its two faces instead of a plane cutting across it. Returns, for those
-/// pixels, the signed distance (m) along the normal from the point to the plane fitted through
-/// its support (0 elsewhere): the point moved by it onto the plane is the surface without most of
-/// its noise (compute_scan_ssao() reads it). Returns an empty image when no pixel's support grew;
-/// the normals are then those of the first fit.
+/// kNoiseSupportFactor * sigma exceeds kScanNormalSupportM are fitted over that many metres, in
+/// windows of up to kMaxNoiseNormalRadiusPx (a Kinect-class camera's noise grows with the square
+/// of the depth; a laser's few millimetres grow nothing); `map.noise` keeps sigma(depth). Where
+/// such a wider window straddles a crease (its points spread along its normal by more than
+/// kCreaseSpreadFactor sigma), the windows beside the pixel are fitted too and the one whose plane
+/// fits the pixel and its points best is kept, so that a corner keeps its two faces instead of a
+/// plane cutting across it. Returns, for those pixels, the signed distance (m) along the normal
+/// from the point to the plane fitted through its support (0 elsewhere): the point moved by it onto
+/// the plane is the surface without most of its noise (compute_scan_ssao() reads it). Returns an
+/// empty image when no pixel's support grew; the normals are then those of the first fit.
 Image<float> compute_scan_normals(RangeMap& map);
 inline constexpr float kScanNormalSupportM = 0.02f;
 inline constexpr int kScanNormalMinPoints = 16;

@@ -86,9 +86,9 @@ TEST(MvaoQuality, ThreeKinectFramesOfTheCornerReadTheirPointsOnTheirPlanes) {
   // steps): the scans' own noise widens their normal fits and the SSAO reads the points on the
   // fitted planes (compute_scan_normals()), the scans find each other's points within that
   // noise (corresponding_pixel()), its dropouts are no coverage borders (border_distance()), and
-  // its wider fits near a crease take the windows beside the point. Measured: SSAO 0.708, MVAO
-  // 0.738, 65.7 % of the points seen by two scans or more (the 640 x 480 frames of the benchmark:
-  // 0.858, 0.886, 78.8 %); with centred windows alone SSAO 0.675, MVAO 0.707; with the dropouts as
+  // its wider fits near a crease take the windows beside the point. Measured: SSAO 0.710, MVAO
+  // 0.741, 65.7 % of the points seen by two scans or more (the 640 x 480 frames of the benchmark:
+  // 0.864, 0.888, 78.8 %); with centred windows alone SSAO 0.675, MVAO 0.707; with the dropouts as
   // borders too, MVAO 0.694; with the 2 t test alone 0.690 and 57.6 %; with the 2 cm fits alone,
   // as before the noise model, SSAO 0.405, MVAO 0.424.
   const test::QualityRow r = three_corner_frames(test::QualityNoise::kKinect);

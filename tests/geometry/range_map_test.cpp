@@ -524,9 +524,10 @@ RangeMap first_fits(const RangeMap& map) {
 TEST(RangeMap, AScansOwnNoiseWidensItsPlaneFitsWhereTheNoiseIsLarge) {
   // Half a millimetre of noise nearer than 1.8 m (a laser's order: 8 sigma stay under the 2 cm
   // floor), 8 mm beyond (a Kinect's at 3 m). compute_scan_normals() measures that noise from its
-  // first fits' residuals and fits the far pixels again over 8 sigma (the 17 x 17 window there);
-  // the near ones keep their first fit bit for bit and no offset. Measured (far: 2.0-3.2 m): mean
-  // normal error 2.80 -> 1.96 degrees, the points moved onto their planes 4.00 -> 0.60 mm RMS
+  // first fits' residuals and fits the far pixels again over 8 sigma (windows up to 25 x 25
+  // there); the near ones keep their first fit bit for bit and no offset. Measured (far:
+  // 2.0-3.2 m): mean normal error 2.80 -> 1.79 degrees (1.96 with windows of at most 17 x 17), the
+  // points moved onto their planes 4.00 -> 0.59 mm RMS
   // from the true plane (the depth noise is along the rays, at up to 70 degrees from the normal).
   Eigen::Vector3f normal;
   float d = 0.0f;
@@ -598,9 +599,9 @@ TEST(RangeMap, AScanWithoutLargeNoiseKeepsItsFirstFitAndGivenNormals) {
 TEST(RangeMap, APointWhoseWiderFitFailsKeepsItsFirstNormal) {
   // A 3 x 3-pixel patch of a wall at 4 m in front of a wall at 6 m, both with 8 mm of noise. The
   // 2 cm fit there reads the 7 x 7 pixels around the patch's middle and finds the patch's nine
-  // points; the noise widens the support to the 17 x 17 window, read at 7 x 7 pixels spread over
-  // it, of which only the middle lies on the near wall: too few points for a plane. The middle
-  // keeps the first fit's normal (and no offset) instead of losing its normal.
+  // points; the noise widens the support to a window several times wider, read at 7 x 7 pixels
+  // spread over it, of which only the middle lies on the near wall: too few points for a plane.
+  // The middle keeps the first fit's normal (and no offset) instead of losing its normal.
   RangeMap map = noisy_plane_scan(
       Eigen::Vector3f(0.05f, 0.02f, -1.0f).normalized(), 4.0f, [](float) { return 0.008f; }, 13);
   for (int y = 0; y < map.camera.height; ++y)
