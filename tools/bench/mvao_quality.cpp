@@ -82,6 +82,10 @@ int run(int argc, char** argv) {
                  "ao.t_max_m: SSAO and reference distance falloff t_max (m)")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 10.0));
+  app.add_option("--bias", options.ao.bias,
+                 "ao.bias: SSAO tangent-plane bias, a share of the point's depth")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.1));
   app.add_option("--t-p", options.t_p_px, "Eq. 12's t_p (pixels)")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 10000.0));
