@@ -140,7 +140,65 @@ bool has_normal(const RangeMap& map, int x, int y) {
   return map.has_point(x, y) && n.allFinite() && n.squaredNorm() > 0.0f;
 }
 
+/// Which pixels of `map` have a point, and which also a normal.
+Image<std::uint8_t> pixel_kinds(const RangeMap& map) {
+  const int w = map.camera.width, h = map.camera.height;
+  Image<std::uint8_t> kind(w, h, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x)
+        kind(x, y) = static_cast<std::uint8_t>((map.has_point(x, y) ? kPoint : 0) |
+                                               (has_normal(map, x, y) ? kNormal : 0));
+  });
+  return kind;
+}
+
+/// smooth_scan_ssao() with the pixels' kinds given.
+void smooth(const RangeMap& map, const Image<std::uint8_t>& kind, const Image<float>& raw,
+            float sigma_m, Image<float>& ao) {
+  const int w = map.camera.width, h = map.camera.height;
+  const bool wrap = map.camera.wraps();
+  // The paper's taps (sigma 1 px), kept to the bit where a pixel spans sigma_m or less.
+  static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};
+  ao.resize(w, h, 1.0f);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        if ((kind(x, y) & kNormal) == 0) {
+          ao(x, y) = 1.0f;
+          continue;
+        }
+        std::array<float, 5> taps = kTaps;
+        const float sigma_px =
+            sigma_m / point_radius(map.camera, map.camera.depth(map.points(x, y)));
+        if (sigma_px < 1.0f) {  // exp(-d^2 / (2 sigma^2)) at d = 1 and 2
+          const float t1 = std::exp(-0.5f / (sigma_px * sigma_px));
+          const float t2 = (t1 * t1) * (t1 * t1);
+          taps = {t2, t1, 1.0f, t1, t2};
+        }
+        float sum = 0.0f, weights = 0.0f;
+        for (int dy = -2; dy <= 2; ++dy)
+          for (int dx = -2; dx <= 2; ++dx) {
+            int sx = x + dx;
+            int sy = y + dy;
+            if (!onto_map(sx, sy, w, h, wrap) || (kind(sx, sy) & kNormal) == 0) continue;
+            const float k = taps[dx + 2] * taps[dy + 2];
+            sum += k * raw(sx, sy);
+            weights += k;
+          }
+        ao(x, y) = sum / weights;
+      }
+  });
+}
+
 }  // namespace
+
+void smooth_scan_ssao(const RangeMap& map, const Image<float>& raw, float sigma_m,
+                      Image<float>& ao) {
+  if (raw.width() != map.camera.width || raw.height() != map.camera.height)
+    throw usage_error(map.name + ": an SSAO image of another size than the map");
+  smooth(map, pixel_kinds(map), raw, sigma_m, ao);
+}
 
 void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_t pattern_index,
                        Image<float>& ao, const Image<float>& plane_offset_m) {
@@ -150,13 +208,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   const Image<float>* offset_m = plane_offset_m.empty() ? nullptr : &plane_offset_m;
   const SsaoPattern pattern = make_ssao_pattern(config, pattern_index);
   // Which pixels have a point, and which also a normal: read about 26 times a pixel below.
-  Image<std::uint8_t> kind(w, h, 0);
-  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
-      for (int x = 0; x < w; ++x)
-        kind(x, y) = static_cast<std::uint8_t>((map.has_point(x, y) ? kPoint : 0) |
-                                               (has_normal(map, x, y) ? kNormal : 0));
-  });
+  const Image<std::uint8_t> kind = pixel_kinds(map);
   Image<float> raw(w, h, 1.0f);
   const bool wrap = map.camera.wraps();
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -170,29 +222,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
                         : 1.0f;
     }
   });
-  // 5 x 5 Gaussian (sigma 1 px) over the pixels with a normal, renormalised at holes and edges.
-  static const std::array<float, 5> kTaps = {0.135335f, 0.606531f, 1.0f, 0.606531f, 0.135335f};
-  ao.resize(w, h, 1.0f);
-  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y)
-      for (int x = 0; x < w; ++x) {
-        if ((kind(x, y) & kNormal) == 0) {
-          ao(x, y) = 1.0f;
-          continue;
-        }
-        float sum = 0.0f, weights = 0.0f;
-        for (int dy = -2; dy <= 2; ++dy)
-          for (int dx = -2; dx <= 2; ++dx) {
-            int sx = x + dx;
-            int sy = y + dy;
-            if (!onto_map(sx, sy, w, h, wrap) || (kind(sx, sy) & kNormal) == 0) continue;
-            const float k = kTaps[dx + 2] * kTaps[dy + 2];
-            sum += k * raw(sx, sy);
-            weights += k;
-          }
-        ao(x, y) = sum / weights;
-      }
-  });
+  smooth(map, kind, raw, static_cast<float>(kScanSsaoSmoothingShare * config.radius_m), ao);
 }
 
 }  // namespace aoscan

@@ -1,6 +1,7 @@
 // Tests for src/ao/scan_ssao.cpp: the per-scan SSAO of range maps, here on maps with holes.
 #include "ao/scan_ssao.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -35,14 +36,64 @@ double mean_abs_difference(const RangeMap& map, const Image<float>& a, const Ima
   return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }
 
+TEST(ScanSsao, TheSmoothingSpansAtMostItsShareOfTheRadiusInMetres) {
+  // A plane facing a 9 x 9 pinhole camera (fx = 100) whose per-pixel SSAO is 1 but for one dark
+  // pixel in the middle: each pixel's smoothed value is 1 - w(d) / sum of w over its window, w
+  // the Gaussian exp(-d^2 / (2 sigma^2)) of the pixel's distance d to the dark one, sigma =
+  // min(1 px, sigma_m / footprint). At 2 m a pixel spans 2 cm: sigma_m = 2 or 4 cm gives the
+  // paper's sigma of 1 px, 1 cm gives 0.5 px; at 4 m, 1 cm gives 0.25 px. A pixel without a
+  // normal stays 1 and weighs nothing.
+  const Intrinsics k{9, 9, 100.0, 100.0, 4.0, 4.0};
+  for (const float depth : {2.0f, 4.0f}) {
+    Image<float> z(k.width, k.height, depth);
+    RangeMap map;
+    range_map_from_depth(z, k, map);
+    map.normals.fill(Eigen::Vector3f(0.0f, 0.0f, -1.0f));
+    map.normals(0, 4).setZero();  // no normal: no SSAO of its own, no weight in its neighbours'
+    Image<float> raw(k.width, k.height, 1.0f);
+    raw(4, 4) = 0.0f;
+    raw(0, 4) = 0.0f;
+    for (const float sigma_m : {0.01f, 0.02f, 0.04f}) {
+      Image<float> ao;
+      smooth_scan_ssao(map, raw, sigma_m, ao);
+      const double sigma = std::min(1.0, static_cast<double>(sigma_m) / (depth / 100.0));
+      for (int y = 0; y < k.height; ++y)
+        for (int x = 0; x < k.width; ++x) {
+          if (x == 0 && y == 4) {
+            EXPECT_EQ(ao(x, y), 1.0f);
+            continue;
+          }
+          double sum = 0.0, dark = 0.0;
+          for (int sy = y - 2; sy <= y + 2; ++sy)
+            for (int sx = x - 2; sx <= x + 2; ++sx) {
+              if (sx < 0 || sy < 0 || sx >= k.width || sy >= k.height || (sx == 0 && sy == 4))
+                continue;
+              const double d2 = (sx - x) * (sx - x) + (sy - y) * (sy - y);
+              const double weight = std::exp(-d2 / (2.0 * sigma * sigma));
+              sum += weight;
+              if (sx == 4 && sy == 4) dark = weight;
+            }
+          EXPECT_NEAR(ao(x, y), 1.0 - dark / sum, 2e-6)
+              << "depth " << depth << ", sigma_m " << sigma_m << ", pixel " << x << ", " << y;
+        }
+    }
+  }
+  Image<float> wrong(3, 3, 1.0f);
+  RangeMap map;
+  range_map_from_depth(Image<float>(k.width, k.height, 2.0f), k, map);
+  Image<float> ao;
+  EXPECT_THROW(smooth_scan_ssao(map, wrong, 0.01f, ao), Error);
+}
+
 TEST(ScanSsao, SamplesFallingInHolesReadTheNeighbouringPoints) {
   // An exact 640 x 320 laser scan of the room (exact normals), and the same map with half of its
   // pixels emptied at random: the map a cloud rebuilt as in Sec. 7 gives, about two pixels per
   // point. A sample that lands in a hole reads a neighbouring point of the same surface, so the
   // points kept take nearly the SSAO of the full map. Measured, mean |difference| over all the
-  // points kept / over those whose AO in the full map is below 0.9: 0.0012 / 0.0230, against
-  // 0.0018 / 0.0373 when samples in holes were dropped (each point's AO then rested on half of
-  // its samples).
+  // points kept / over those whose AO in the full map is below 0.9: 0.0013 / 0.0322, against
+  // 0.0026 / 0.0655 when samples in holes are dropped (each point's AO then rests on half of its
+  // samples). (With the smoothing of 1 px whatever the pixel's size, before it was limited to
+  // r_s / 10 in metres: 0.0012 / 0.0230 against 0.0018 / 0.0373; the map's pixels span 2-3 cm.)
   const AnalyticScene scene = AnalyticScene::make("room");
   RangeMap full;
   render_scan(scene, ScanCamera::make_equirectangular(320),
@@ -69,8 +120,8 @@ TEST(ScanSsao, SamplesFallingInHolesReadTheNeighbouringPoints) {
   const double occluded = mean_abs_difference(holed, ao_holed, ao_full, 0.9f);
   std::printf("mean |SSAO with holes - SSAO of the full map|: %.4f, where occluded: %.4f\n",
               difference, occluded);
-  EXPECT_LT(difference, 0.0015);
-  EXPECT_LT(occluded, 0.03);
+  EXPECT_LT(difference, 0.002);
+  EXPECT_LT(occluded, 0.045);
   for (int y = 0; y < holed.camera.height; ++y)
     for (int x = 0; x < holed.camera.width; ++x) {
       if (!holed.has_point(x, y)) {
