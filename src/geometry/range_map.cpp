@@ -258,8 +258,10 @@ void fit_normals(RangeMap& map, const Fit& fit, float max_jump_ratio, int radius
               window(radius, shift[0] * width_of(radius), shift[1] * radius);
               Solver e;
               Eigen::Vector3d m;
-              if (count < min_points || !solve(e, m) || !(misfit(e, m) < best)) continue;
-              best = misfit(e, m);
+              if (count < min_points || !solve(e, m)) continue;
+              const double f = misfit(e, m);
+              if (!(f < best)) continue;
+              best = f;
               eigen = e;
               mean = m;
             }
