@@ -527,8 +527,8 @@ TEST(RangeMap, AScansOwnNoiseWidensItsPlaneFitsWhereTheNoiseIsLarge) {
   // first fits' residuals and fits the far pixels again over 8 sigma (windows up to 25 x 25
   // there); the near ones keep their first fit bit for bit and no offset. Measured (far:
   // 2.0-3.2 m): mean normal error 2.80 -> 1.79 degrees (1.96 with windows of at most 17 x 17), the
-  // points moved onto their planes 4.00 -> 0.59 mm RMS
-  // from the true plane (the depth noise is along the rays, at up to 70 degrees from the normal).
+  // points moved onto their planes 4.00 -> 0.59 mm RMS from the true plane (the depth noise is
+  // along the rays, at up to 70 degrees from the normal).
   Eigen::Vector3f normal;
   float d = 0.0f;
   RangeMap map = noisy_slope(0.0005f, 0.008f, normal, d);
