@@ -29,7 +29,7 @@ namespace {
 /// border_distance(): a Laplacian edge must exceed this share of the pixel's depth (scan_set.cpp).
 constexpr float kMinEdgeRatio = 0.01f;
 /// Depth frames: raw units per metre (aoscan-scanset's depth PNGs and the synthetic camera's).
-/// Evaluated points: the nearest scene surface point must lie within this (m).
+/// Evaluated points: their surface point (measured_surface()) must lie within this (m).
 constexpr double kSurfaceMatchM = 0.05;
 /// Reference rays start this far off the surface (m).
 constexpr double kReferenceOffsetM = 1e-4;
@@ -109,9 +109,9 @@ void laser_scan(const AnalyticScene& scene, const QualitySet& set, const Pose& p
   map.normals.fill(Eigen::Vector3f::Zero());  // a laser scan has none: estimated from the points
 }
 
-/// Every point's normal: the scene's at the surface point nearest to it (within kSurfaceMatchM),
-/// in the scanner frame, facing the scanner; zero where there is none.
-void set_exact_normals(const AnalyticScene& scene, RangeMap& map) {
+/// Every point's normal: the scene's at its surface point (measured_surface()), in the scanner
+/// frame, facing the scanner; zero where there is none.
+void set_exact_normals(const AnalyticScene& scene, QualityReference reference, RangeMap& map) {
   const Eigen::Matrix3d R_scanner_world = map.T_world_scanner.rotation().transpose();
   tbb::parallel_for(
       tbb::blocked_range<int>(0, map.camera.height), [&](const tbb::blocked_range<int>& rows) {
@@ -119,12 +119,10 @@ void set_exact_normals(const AnalyticScene& scene, RangeMap& map) {
           for (int x = 0; x < map.camera.width; ++x) {
             map.normals(x, y).setZero();
             if (!map.has_point(x, y)) continue;
-            const Eigen::Vector3f& p = map.points(x, y);
-            const std::optional<SurfacePoint> s =
-                scene.nearest_surface_point(map.T_world_scanner * p.cast<double>(), kSurfaceMatchM);
+            const std::optional<SurfacePoint> s = measured_surface(scene, map, x, y, reference);
             if (!s) continue;
             Eigen::Vector3f n = (R_scanner_world * s->normal).cast<float>();
-            if (n.dot(p) > 0.0f) n = -n;
+            if (n.dot(map.points(x, y)) > 0.0f) n = -n;
             map.normals(x, y) = n;
           }
       });
@@ -139,13 +137,12 @@ RayCaster scene_caster(const AnalyticScene& scene) {
   };
 }
 
-/// The reference obscurance at the scene surface point nearest to pixel (x, y)'s world point;
-/// nullopt when none lies within kSurfaceMatchM.
+/// The reference obscurance at pixel (x, y)'s surface point (measured_surface()); nullopt when
+/// it has none.
 std::optional<double> reference_at(const AnalyticScene& scene, const RayCaster& cast,
                                    const RangeMap& map, int x, int y,
                                    const QualityOptions& options) {
-  const Eigen::Vector3d p = map.T_world_scanner * map.points(x, y).cast<double>();
-  const std::optional<SurfacePoint> s = scene.nearest_surface_point(p, kSurfaceMatchM);
+  const std::optional<SurfacePoint> s = measured_surface(scene, map, x, y, options.reference);
   if (!s) return std::nullopt;
   return reference_obscurance(cast, s->p, s->normal, options.ao.t_max_m, options.strata,
                               kReferenceOffsetM);
@@ -171,6 +168,25 @@ struct Sample {
 
 }  // namespace
 
+std::optional<SurfacePoint> measured_surface(const AnalyticScene& scene, const RangeMap& map, int x,
+                                             int y, QualityReference reference) {
+  const Eigen::Vector3d p = map.T_world_scanner * map.points(x, y).cast<double>();
+  const Eigen::Vector3d o = map.T_world_scanner.translation();
+  std::optional<SurfacePoint> s;
+  if (reference == QualityReference::kNearest) {
+    s = scene.nearest_surface_point(p, kSurfaceMatchM);
+  } else {
+    const double range = (p - o).norm();
+    Hit hit;
+    const Eigen::Vector3d d = (p - o) / range;
+    if (range > 0.0 && scene.intersect(Ray{o, d}, 0.0, range + kSurfaceMatchM, &hit) &&
+        hit.t >= range - kSurfaceMatchM)
+      s = SurfacePoint{o + hit.t * d, hit.normal.dot(d) > 0.0 ? -hit.normal : hit.normal,
+                       hit.primitive};
+  }
+  return s;
+}
+
 std::string QualitySet::label() const {
   return scene + " " + camera_name(camera) + " " + std::to_string(scans) + " " +
          (noise == QualityNoise::kKinect ? "kinect" : "laser");
@@ -195,7 +211,7 @@ PreparedSet prepare_quality_set(const QualitySet& set, const QualityOptions& opt
     else
       laser_scan(scene, set, pose, seed, map);
     if (map.count_points() == 0) throw input_error(set.label() + ": " + map.name + " is empty");
-    if (options.exact_normals) set_exact_normals(scene, map);
+    if (options.exact_normals) set_exact_normals(scene, options.reference, map);
     const Image<float> plane_offset_m = compute_scan_normals(map);
     compute_scan_ssao(map, options.ao, pattern_index(map.name), scan.ssao, plane_offset_m);
     border_distance(map, kMinEdgeRatio, scan.border_px);

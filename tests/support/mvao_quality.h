@@ -16,12 +16,14 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "ao/ao_config.h"
 #include "ao/multiscan.h"
 #include "core/image.h"
+#include "sim/synth_scene.h"
 
 namespace aoscan::test {
 
@@ -56,19 +58,42 @@ struct QualitySet {
   std::string label() const;
 };
 
+/// The scene surface point a scan point measured, where the reference is taken.
+enum class QualityReference {
+  /// The surface the scanner's ray through the point hits first: the sample's own surface point.
+  /// Every noise model here moves a point along its ray (the Kinect model also takes the range
+  /// of a ray jittered by 0.5 px), so the pixel's ray still meets the surface the point stands
+  /// for, however large the noise.
+  kRayHit,
+  /// The scene surface point nearest to the point: where the noise moved the point to. Near a
+  /// crease or at a grazing angle this is another surface point than the measured one, farther
+  /// from it the larger the noise, so even the exact AO of the measured points falls short of
+  /// r = 1 against it (BENCHMARKS.md).
+  kNearest,
+};
+
 /// How a set is measured.
 struct QualityOptions {
   AoConfig ao;           ///< the SSAO configuration (aoscan scans's ao.* keys)
   float t_p_px = 64.0f;  ///< Eq. 12's t_p
   int strata = 8;        ///< reference_obscurance(): strata per axis (64 rays a point)
   /// Evaluated points: pixel (x, y) of a scan with a point when y % step == 0 and
-  /// x % step == (y / step) % step (every step^2-th pixel, staggered), whose nearest surface point
-  /// of the scene lies within 5 cm.
+  /// x % step == (y / step) % step (every step^2-th pixel, staggered), whose surface point
+  /// (measured_surface()) lies within 5 cm.
   int eval_step = 3;
-  /// A diagnostic, not what `aoscan scans` does: every point takes the exact normal of the scene
-  /// surface nearest to it (within 5 cm) instead of the normal estimated from the points.
+  /// A diagnostic, not what `aoscan scans` does: every point takes the exact normal of its surface
+  /// point (measured_surface()) instead of the normal estimated from the points.
   bool exact_normals = false;
+  /// Which surface point stands for a scan point, for the reference and for exact_normals.
+  QualityReference reference = QualityReference::kRayHit;
 };
+
+/// The surface point that pixel (x, y) of `map` (which has a point) stands for, in the world
+/// frame: the first hit of the scanner's ray through the point, its normal facing the scanner,
+/// or the surface point nearest to the point, its normal the outward one (see QualityReference);
+/// nullopt when it lies more than 5 cm from the point.
+std::optional<SurfacePoint> measured_surface(const AnalyticScene& scene, const RangeMap& map, int x,
+                                             int y, QualityReference reference);
 
 /// The scans of a set after the first stage, ready for integrate_scans().
 struct PreparedSet {
@@ -114,9 +139,9 @@ struct QualityRow {
   double single_r = 0.0, single_mae = 0.0;
   /// Coverage borders: pairs (a, b) of 4-neighbouring pixels of one scan, a an evaluated point and
   /// b its right (equirectangular: wrapping) or lower neighbour, both with a point on the same
-  /// surface (depths within 5 % of a's) and a nearest scene surface point, whose coverage counts
-  /// differ. Over these pairs: the mean |AO_a - AO_b| of the reference, of the MVAO with w_b and
-  /// without (1 x 1). The MVAO's step beyond the reference's is roughness of the integration.
+  /// surface (depths within 5 % of a's) and a surface point (measured_surface()), whose coverage
+  /// counts differ. Over these pairs: the mean |AO_a - AO_b| of the reference, of the MVAO with w_b
+  /// and without (1 x 1). The MVAO's step beyond the reference's is roughness of the integration.
   /// The step error, mean |(MVAO_a - MVAO_b) - (ref_a - ref_b)|, counts both a step that the
   /// reference does not have and one that the MVAO smooths away.
   long long border_pairs = 0;

@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -95,6 +96,15 @@ int run(int argc, char** argv) {
   app.add_flag("--exact-normals", options.exact_normals,
                "diagnostic: every point takes the scene's exact normal instead of the one "
                "estimated from the points");
+  app.add_option("--reference", options.reference,
+                 "where a scan point's reference is taken: ray, the surface its scanner's ray "
+                 "hits (the point's own surface); nearest, the surface point nearest to it")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, test::QualityReference>{
+              {"ray", test::QualityReference::kRayHit},
+              {"nearest", test::QualityReference::kNearest}},
+          CLI::ignore_case))
+      ->default_str("ray");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   try {
@@ -120,9 +130,11 @@ int run(int argc, char** argv) {
     if (sets.empty()) throw usage_error("--only: no set's label contains the text given");
     std::printf(
         "# aoscan-mvao-quality: ao.radius_m %g, ao.t_max_m %g, t_p %g px, laser noise %g mm, "
-        "laser maps %d x %d, reference %d rays%s\n",
+        "laser maps %d x %d, reference %d rays at %s%s\n",
         options.ao.radius_m, options.ao.t_max_m, options.t_p_px, laser_sigma_mm,
         2 * equirect_height, equirect_height, options.strata * options.strata,
+        options.reference == test::QualityReference::kRayHit ? "the points' ray hits"
+                                                             : "the surface points nearest",
         options.exact_normals ? ", exact normals (diagnostic)" : "");
     std::fflush(stdout);
     const auto start = std::chrono::steady_clock::now();
