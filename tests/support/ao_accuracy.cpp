@@ -2,6 +2,7 @@
 /// @brief The AO accuracy harness of ao_accuracy.h.
 #include "support/ao_accuracy.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -11,6 +12,7 @@
 
 #include "ao/mvao_grid.h"
 #include "ao/ssao.h"
+#include "core/status.h"
 #include "sim/reference_ao.h"
 #include "sim/synth_camera.h"
 #include "support/ao_test_util.h"
@@ -126,6 +128,65 @@ std::map<AoKey, AoScore> measure_ao_accuracy(const AoEvalSetup& setup,
     scores[key] = s;
   }
   return scores;
+}
+
+BorderDeficit measure_border_deficit(const AoEvalSetup& setup, const AoConfig& config,
+                                     int margin_px, int border_px) {
+  if (margin_px < 0 || margin_px % 4 != 0)
+    throw usage_error("the margin must be a non-negative multiple of 4 pixels");
+  const AnalyticScene scene = AnalyticScene::make(setup.scene);
+  SynthParams params;
+  params.width = setup.width;
+  params.height = setup.height;
+  const Intrinsics k = params.intrinsics();
+  Intrinsics wide = k;
+  wide.width += 2 * margin_px;
+  wide.height += 2 * margin_px;
+  wide.cx += margin_px;
+  wide.cy += margin_px;
+  const double period_s = 24.0;
+
+  // Each evaluated pixel: its surface point, both SSAO values, its region.
+  std::vector<EvalPoint> points;
+  std::vector<double> frame_ao, margin_ao;
+  std::vector<char> near_border;
+  Image<float> ao, ao_wide, weight;
+  for (int f = 0; f < setup.frames; ++f) {
+    const Pose T =
+        synth_camera_pose(setup.scene, SynthTrajectory::kOrbit, 1, period_s * f / setup.frames);
+    const PointMaps maps = render_exact(scene, k, T);
+    compute_ssao(maps, config, f, ao, weight);
+    compute_ssao(render_exact(scene, wide, T), config, f, ao_wide, weight);
+    for (int y = setup.eval_step_px / 2; y < k.height; y += setup.eval_step_px)
+      for (int x = setup.eval_step_px / 2; x < k.width; x += setup.eval_step_px) {
+        if (!(maps.vertices(x, y).z() > 0.0f)) continue;
+        points.push_back({T * maps.vertices(x, y).cast<double>(),
+                          T.rotation() * maps.normals(x, y).cast<double>(), 0.0});
+        frame_ao.push_back(ao(x, y));
+        margin_ao.push_back(ao_wide(x + margin_px, y + margin_px));
+        near_border.push_back(
+            std::min(std::min(x, y), std::min(k.width - 1 - x, k.height - 1 - y)) < border_px);
+      }
+  }
+  const RayCaster cast = caster(scene);
+  tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t i) {
+    points[i].reference =
+        reference_obscurance(cast, points[i].p, points[i].n, config.t_max_m, setup.strata);
+  });
+
+  // 0: all pixels, 1: near the border, 2: the rest.
+  std::vector<double> got_frame[3], got_margin[3], want[3];
+  for (std::size_t i = 0; i < points.size(); ++i)
+    for (int region : {0, near_border[i] ? 1 : 2}) {
+      got_frame[region].push_back(frame_ao[i]);
+      got_margin[region].push_back(margin_ao[i]);
+      want[region].push_back(points[i].reference);
+    }
+  BorderScore regions[3];
+  for (int region = 0; region < 3; ++region)
+    regions[region] = {score(got_frame[region], want[region]),
+                       score(got_margin[region], want[region])};
+  return {regions[0], regions[1], regions[2]};
 }
 
 const char* estimator_name(AoEstimator e) {

@@ -50,6 +50,25 @@ using AoKey = std::pair<AoEstimator, AoIntegration>;
 std::map<AoKey, AoScore> measure_ao_accuracy(const AoEvalSetup& setup,
                                              const std::vector<AoConfig>& configs);
 
+/// One frame-SSAO comparison of measure_border_deficit() over a region of the image.
+struct BorderScore {
+  AoScore frame;   ///< the frame's own SSAO (samples beyond the image border find nothing)
+  AoScore margin;  ///< the same frame's SSAO rendered with a margin and cropped
+};
+
+/// What the frame's SSAO misses near the image border because the occluders beyond it are not in
+/// the frame: at every eval_step_px-th pixel (both axes) of each of setup.frames frames along the
+/// orbit, the SSAO of the exact W x H frame and of the same view rendered (W + 2m) x (H + 2m) with
+/// the principal point moved by m = margin_px (a multiple of 4, so that each pixel keeps its
+/// sample pattern) and cropped, both against reference_obscurance() at the pixel's exact surface
+/// point (setup.strata^2 rays). `config` is used as given (its ssao_stride_px should be 1: every
+/// pixel evaluated). Regions: all pixels, those within border_px of the image border, the rest.
+struct BorderDeficit {
+  BorderScore all, border, inner;
+};
+BorderDeficit measure_border_deficit(const AoEvalSetup& setup, const AoConfig& config,
+                                     int margin_px, int border_px);
+
 /// `base` with every estimator x every integration mode.
 std::vector<AoConfig> all_ao_configs(const AoConfig& base);
 

@@ -3,7 +3,9 @@
 /// Eq. 1 reference on the exact room and corner scenes (tables of Pearson r, bias, RMSE), a
 /// sample-count / stride sweep on the corner, and the per-frame time of SSAO + grid update; with
 /// --seed-methods the seed papers' alternatives to the defaults (Vardis et al. 2013's view weight
-/// and importance sampling, Hendrickx et al. 2015's statvo) side by side. The harness is tests/support/ao_accuracy.h, whose small configuration tests/ao asserts on.
+/// and importance sampling, Hendrickx et al. 2015's statvo) side by side; with --border-margin
+/// what the image border costs each frame's SSAO. The harness is tests/support/ao_accuracy.h,
+/// whose small configurations tests/ao asserts on.
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -139,6 +141,31 @@ void time_frames(int width, int height) {
   }
 }
 
+/// What the frames' SSAO misses near the image border: the frame's own SSAO against the same
+/// view's SSAO with `margin_px` more image on every side, cropped (test::measure_border_deficit).
+void measure_border(const AoEvalSetup& size, int margin_px, int border_px) {
+  AoConfig config;
+  config.ssao_stride_px = 1;
+  std::printf(
+      "SSAO (defaults but stride 1) against ray-traced AO, %dx%d frames, the frame's own and with "
+      "a %d px margin cropped; border: within %d px of the image border\n"
+      "| scene | region | pixels | r frame | r margin | bias frame | bias margin | rmse frame | "
+      "rmse margin |\n|---|---|---|---|---|---|---|---|---|\n",
+      size.width, size.height, margin_px, border_px);
+  for (const char* scene : {"corner", "room"}) {
+    AoEvalSetup setup = size;
+    setup.scene = scene;
+    const test::BorderDeficit d = test::measure_border_deficit(setup, config, margin_px, border_px);
+    const std::pair<const char*, const test::BorderScore*> rows[] = {
+        {"all", &d.all}, {"border", &d.border}, {"inner", &d.inner}};
+    for (const auto& [name, s] : rows)
+      std::printf("| %s | %s | %d | %.3f | %.3f | %+.4f | %+.4f | %.4f | %.4f |\n", scene, name,
+                  s->frame.points, s->frame.r, s->margin.r, s->frame.bias, s->margin.bias,
+                  s->frame.rmse, s->margin.rmse);
+    std::fflush(stdout);
+  }
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"aoscan-ao-accuracy: SSAO estimators and MVAO modes against ray-traced AO"};
   AoEvalSetup setup;
@@ -148,6 +175,7 @@ int run(int argc, char** argv) {
   setup.eval_step_px = 24;
   bool no_timing = false;
   bool seed_only = false;
+  int border_margin_px = 0, border_px = 40;
   app.add_option("--width", setup.width, "image width (pixels)")
       ->capture_default_str()
       ->check(CLI::Range(16, 4096));
@@ -164,8 +192,19 @@ int run(int argc, char** argv) {
   app.add_flag("--seed-methods", seed_only,
                "only the seed papers' alternatives (Vardis et al. weights and importance "
                "sampling, statvo) against the defaults");
+  app.add_option("--border-margin", border_margin_px,
+                 "only the border measurement: each frame's SSAO against the same view's with "
+                 "this many pixels more on every side, cropped (a multiple of 4)")
+      ->check(CLI::Range(4, 1024));
+  app.add_option("--border", border_px, "the border measurement's border region (pixels)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1024));
   CLI11_PARSE(app, argc, argv);
   try {
+    if (border_margin_px > 0) {
+      measure_border(setup, border_margin_px, border_px);
+      return 0;
+    }
     if (seed_only)
       measure_seed_methods(setup);
     else
