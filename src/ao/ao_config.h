@@ -96,7 +96,8 @@ struct AoConfig {
   /// same occluder seen face-on; the floor keeps single grazing pixels from dominating. 1 = off
   /// (McGuire et al.'s plain screen-area mean). 0.5, on top of the smoothed normal: the noisy
   /// corner and room correlate better with the reference (0.2: worse, 0.7: alike); see
-  /// BENCHMARKS.md.
+  /// BENCHMARKS.md. `aoscan scans`'s per-scan SSAO (scan_ssao.h) applies it too, reading each
+  /// sample's fitted normal: the MVAO of every synthetic scan set correlates better with it.
   double area_min_cos = 0.5;
   /// Live only (a camera or `--realtime`): while frames are dropped in front of tracking, SSAO runs
   /// on every 3rd, 5th, ... tracked frame, up to this interval (odd; 1 = every frame always); see
@@ -169,8 +170,8 @@ struct AoConfig {
     v.number("normal_max_distance_m", normal_max_distance_m,
              "SSAO normal: only neighbours whose vertices lie within this distance (m)", 0.0, 10.0);
     v.number("area_min_cos", area_min_cos,
-             "SSAO alchemy: a sample's term / max(cos of its surface to its camera ray, this); "
-             "1 = off",
+             "SSAO alchemy: a sample's term / max(cos of its surface to its camera ray, this), in "
+             "the live SSAO and in `aoscan scans`'s per-scan SSAO; 1 = off",
              0.01, 1.0);
     v.integer("ssao_stride_px", ssao_stride_px,
               "SSAO evaluates one pixel per stride x stride block per frame (1 or 2)", 1, 2);

@@ -16,6 +16,7 @@
 namespace aoscan {
 namespace {
 
+using detail::area_factor;
 using detail::kAlchemyEpsilon;
 using detail::kMaxRadiusPx;
 using detail::pattern_class;
@@ -70,8 +71,8 @@ Eigen::Vector3f ssao_point(const RangeMap& map, const Image<float>* offset_m, in
 /// so that it spans as many metres along the row as along the column at any latitude and reaches
 /// across a pole; on a pinhole map (`sphere` null) it is the image plane's disk of radius_px.
 float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<std::uint8_t>& kind,
-               const AoConfig& config, const SsaoPattern& pattern, int x, int y,
-               const ScanCamera::SphereRow* sphere) {
+               const Image<float>* area, const AoConfig& config, const SsaoPattern& pattern, int x,
+               int y, const ScanCamera::SphereRow* sphere) {
   const Eigen::Vector3f p = ssao_point(map, offset_m, x, y);
   const Eigen::Vector3f& n = map.normals(x, y);
   const ScanCamera& camera = map.camera;
@@ -121,7 +122,9 @@ float pixel_ao(const RangeMap& map, const Image<float>* offset_m, const Image<st
     ++counted;
     const float nv = n.dot(v) - bias_m;
     if (estimator == AoEstimator::kAlchemy) {
-      if (nv > 0.0f) sum += radius_m * nv / (d2 + r2eps);
+      if (!(nv > 0.0f)) continue;
+      const float term = radius_m * nv / (d2 + r2eps);
+      sum += area != nullptr ? term * (*area)(sx, sy) : term;
       continue;
     }
     const float d = std::sqrt(d2);
@@ -209,6 +212,20 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
   const SsaoPattern pattern = make_ssao_pattern(config, pattern_index);
   // Which pixels have a point, and which also a normal: read about 26 times a pixel below.
   const Image<std::uint8_t> kind = pixel_kinds(map);
+  // Alchemy's area factor of every pixel as a sample (read as often): the surface area its
+  // pixel stands for, compute_ssao()'s factor from the pixel's own point (its ray to the
+  // scanner) and normal; 1 without a normal.
+  Image<float> area;
+  const auto area_min_cos = static_cast<float>(config.area_min_cos);
+  if (pattern.estimator == AoEstimator::kAlchemy && area_min_cos < 1.0f) {
+    area.resize(w, h, 1.0f);
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+      for (int y = rows.begin(); y < rows.end(); ++y)
+        for (int x = 0; x < w; ++x)
+          if ((kind(x, y) & kNormal) != 0)
+            area(x, y) = area_factor(map.points(x, y), map.normals(x, y), area_min_cos);
+    });
+  }
   Image<float> raw(w, h, 1.0f);
   const bool wrap = map.camera.wraps();
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -218,7 +235,8 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
       const ScanCamera::SphereRow* row = wrap ? &sphere : nullptr;
       for (int x = 0; x < w; ++x)
         raw(x, y) = (kind(x, y) & kNormal) != 0
-                        ? pixel_ao(map, offset_m, kind, config, pattern, x, y, row)
+                        ? pixel_ao(map, offset_m, kind, area.empty() ? nullptr : &area, config,
+                                   pattern, x, y, row)
                         : 1.0f;
     }
   });

@@ -20,8 +20,9 @@ namespace aoscan {
 /// make_ssao_pattern(config, pattern_index) at the nearest pixels (a sample in a hole of the map
 /// reads the neighbouring pixel it leans to: a cloud's Sec. 7 map holds a point in about half of
 /// its pixels); the sample terms of config.estimator as in compute_ssao() (paper, obscurance,
-/// alchemy without the area factor; the slice estimators and statvo fall back to obscurance), the
-/// bias scaled by the point's depth. Then smooth_scan_ssao() over kScanSsaoSmoothingShare * r_s
+/// alchemy with its area factor over config.area_min_cos, read from the sample's own normal where
+/// it has one; the slice estimators and statvo fall back to obscurance), the bias scaled by the
+/// point's depth. Then smooth_scan_ssao() over kScanSsaoSmoothingShare * r_s
 /// (the paper's 5 x 5 Gaussian of sigma 1 px where a pixel spans that much or less). `ao` takes
 /// the map's size: [0, 1], 1 = open; 1 where there is no point. Rows run in parallel; the result
 /// does not depend on the thread count. `plane_offset_m` (empty, or the map's size;

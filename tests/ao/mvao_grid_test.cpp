@@ -355,7 +355,9 @@ TEST(MvaoGrid, CoarseLookupEqualsTheCoarsenedGridsSampleInEveryMode) {
       }
       const Frame f(points, ao, w);
       ASSERT_TRUE(grid.integrate(f.ao, f.w, f.maps, T).is_ok());
-      if (frame == 2) ASSERT_TRUE(grid.restore_cell({-20, 3, 7}, {0.3f, 0.5f, 3}));
+      if (frame == 2) {
+        ASSERT_TRUE(grid.restore_cell({-20, 3, 7}, {0.3f, 0.5f, 3}));
+      }
       if (frame % 2 == 0) continue;
       grid.refresh_brick_sums();
       const MvaoGrid coarse = grid.coarsened(MvaoGrid::kBrickSide);

@@ -38,14 +38,16 @@ TEST(MvaoQuality, ThreeLaserScansOfTheRoomClearTheRTargetAndSmoothTheirSeams) {
                   "which run the same harness on the depth-camera set below";
 #endif
   // 640 x 320 maps, 2 mm range noise, normals estimated from the points, the default AoConfig.
-  // Measured: SSAO 0.967, MVAO 0.975 (3x3 0.956, without w_b 0.974); step error 0.0173 with w_b,
-  // 0.0228 without, over 824 border pairs. With the reference at the surface points nearest to
-  // the noisy points instead of the points' ray hits, as in the older figures that follow: SSAO
-  // 0.964, MVAO 0.971 (3x3 0.950, without w_b 0.970). With the SSAO smoothed by 1 px whatever the
-  // pixel's size (before it was limited to r_s / 10 in metres: these pixels span 2-3 cm), SSAO
-  // 0.942 and MVAO 0.957; before the windows and sample disks near the poles spanned as many metres
-  // along a row as along a column, SSAO 0.874 and MVAO 0.954: the scans' own errors, which the
-  // other scans averaged out, made most of the MVAO's lead over the SSAO (BENCHMARKS.md).
+  // Measured: SSAO 0.970, MVAO 0.978 (3x3 0.960, without w_b 0.977); step error 0.0199 with w_b,
+  // 0.0284 without, over 824 border pairs. Without alchemy's area factor: SSAO 0.967, MVAO 0.975
+  // (3x3 0.956, without w_b 0.974), step error 0.0173 and 0.0228. Without it and with the reference
+  // at the surface points nearest to the noisy points instead of the points' ray hits, as in the
+  // older figures that follow: SSAO 0.964, MVAO 0.971 (3x3 0.950, without w_b 0.970). With the SSAO
+  // smoothed by 1 px whatever the pixel's size (before it was limited to r_s / 10 in metres: these
+  // pixels span 2-3 cm), SSAO 0.942 and MVAO 0.957; before the windows and sample disks near the
+  // poles spanned as many metres along a row as along a column, SSAO 0.874 and MVAO 0.954: the
+  // scans' own errors, which the other scans averaged out, made most of the MVAO's lead over the
+  // SSAO (BENCHMARKS.md).
   test::QualitySet set;
   set.scene = "room";
   set.camera = test::QualityCamera::kEquirect;
@@ -73,10 +75,11 @@ TEST(MvaoQuality, ThreeDepthCameraFramesOfTheCornerGainLessButSmoothTheirSeams) 
   // borders on open surfaces, the seams w_b is for.
   const test::QualityRow r = three_corner_frames(test::QualityNoise::kLaser);
   print(r);
-  // Measured: SSAO 0.896, MVAO 0.931 (3x3 0.929, without w_b 0.920); step error 0.0058 with
-  // w_b, 0.0121 without, over 1278 border pairs (with the reference at the nearest surface points:
-  // SSAO 0.894, MVAO 0.928, step error 0.0060; 0.0050 while the depth camera's dropouts still
-  // counted as borders).
+  // Measured: SSAO 0.894, MVAO 0.932 (3x3 0.931, without w_b 0.917); step error 0.0073 with
+  // w_b, 0.0183 without, over 1278 border pairs. Without alchemy's area factor SSAO 0.896, MVAO
+  // 0.931, step error 0.0058 and 0.0121; without it and with the reference at the nearest surface
+  // points: SSAO 0.894, MVAO 0.928, step error 0.0060 (0.0050 while the depth camera's dropouts
+  // still counted as borders).
   EXPECT_GT(r.evaluated, 20000);
   EXPECT_GT(r.border_pairs, 1000);
   EXPECT_GE(r.mvao_r, 0.90);
@@ -90,10 +93,11 @@ TEST(MvaoQuality, ThreeKinectFramesOfTheCornerReadTheirPointsOnTheirPlanes) {
   // steps): the scans' own noise widens their normal fits and the SSAO reads the points on the
   // fitted planes (compute_scan_normals()), the scans find each other's points within that
   // noise (corresponding_pixel()), its dropouts are no coverage borders (border_distance()), and
-  // its wider fits near a crease take the windows beside the point. Measured: SSAO 0.713, MVAO
-  // 0.745, 65.7 % of the points seen by two scans or more (the 640 x 480 frames of the benchmark:
-  // 0.886, 0.911, 78.8 %). With the reference at the nearest surface points, as in all the
-  // figures that follow: 0.710, 0.741 (benchmark 0.864, 0.888); with centred windows alone SSAO
+  // its wider fits near a crease take the windows beside the point. Measured: SSAO 0.739, MVAO
+  // 0.766, 65.7 % of the points seen by two scans or more (the 640 x 480 frames of the benchmark:
+  // 0.883, 0.913, 78.8 %); without alchemy's area factor 0.713, 0.745 (benchmark 0.886, 0.911).
+  // Without it and with the reference at the nearest surface points, as in all the figures that
+  // follow: 0.710, 0.741 (benchmark 0.864, 0.888); with centred windows alone SSAO
   // 0.675, MVAO 0.707; with the dropouts as borders too, MVAO 0.694; with the 2 t test alone 0.690
   // and 57.6 %; with the 2 cm fits alone, as before the noise model, SSAO 0.405, MVAO 0.424.
   const test::QualityRow r = three_corner_frames(test::QualityNoise::kKinect);
