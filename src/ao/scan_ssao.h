@@ -22,12 +22,12 @@ namespace aoscan {
 /// its pixels); the sample terms of config.estimator as in compute_ssao() (paper, obscurance,
 /// alchemy with its area factor over config.area_min_cos, read from the sample's own normal where
 /// it has one; the slice estimators and statvo fall back to obscurance), the bias scaled by the
-/// point's depth. Then smooth_scan_ssao() over kScanSsaoSmoothingShare * r_s
-/// (the paper's 5 x 5 Gaussian of sigma 1 px where a pixel spans that much or less). `ao` takes
-/// the map's size: [0, 1], 1 = open; 1 where there is no point. Rows run in parallel; the result
-/// does not depend on the thread count. `plane_offset_m` (empty, or the map's size;
-/// compute_scan_normals() returns it): each point is read moved by it along its normal, onto the
-/// plane fitted to its neighbours, so that a noisy scan's range noise does not pass for occluders.
+/// point's depth. Then smooth_scan_ssao() over kScanSsaoSmoothingShare * r_s (the paper's 5 x 5
+/// Gaussian of sigma 1 px where a pixel spans that much or less). `ao` takes the map's size:
+/// [0, 1], 1 = open; 1 where there is no point. Rows run in parallel; the result does not depend
+/// on the thread count. `plane_offset_m` (empty, or the map's size; compute_scan_normals() returns
+/// it): each point is read moved by it along its normal, onto the plane fitted to its neighbours,
+/// so that a noisy scan's range noise does not pass for occluders.
 void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_t pattern_index,
                        Image<float>& ao, const Image<float>& plane_offset_m = {});
 

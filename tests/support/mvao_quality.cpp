@@ -177,9 +177,10 @@ std::optional<SurfacePoint> measured_surface(const AnalyticScene& scene, const R
     s = scene.nearest_surface_point(p, kSurfaceMatchM);
   } else {
     const double range = (p - o).norm();
-    Hit hit;
+    if (!(range > 0.0)) return std::nullopt;
     const Eigen::Vector3d d = (p - o) / range;
-    if (range > 0.0 && scene.intersect(Ray{o, d}, 0.0, range + kSurfaceMatchM, &hit) &&
+    Hit hit;
+    if (scene.intersect(Ray{o, d}, 0.0, range + kSurfaceMatchM, &hit) &&
         hit.t >= range - kSurfaceMatchM)
       s = SurfacePoint{o + hit.t * d, hit.normal.dot(d) > 0.0 ? -hit.normal : hit.normal,
                        hit.primitive};
