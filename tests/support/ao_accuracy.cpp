@@ -20,6 +20,9 @@
 namespace aoscan::test {
 namespace {
 
+/// The orbit trajectory's period (s): frames are spread evenly over one turn.
+constexpr double kOrbitPeriodS = 24.0;
+
 struct EvalPoint {
   Eigen::Vector3d p, n;
   double reference;
@@ -71,12 +74,11 @@ std::map<AoKey, AoScore> measure_ao_accuracy(const AoEvalSetup& setup,
   params.width = setup.width;
   params.height = setup.height;
   const Intrinsics k = params.intrinsics();
-  const double period_s = 24.0;
 
   // Evaluation points: exact surface points and normals, with their reference obscurance.
   std::vector<EvalPoint> points;
   for (int v = 0; v < setup.eval_views; ++v) {
-    const double t = period_s * (v + 0.37) / setup.eval_views;
+    const double t = kOrbitPeriodS * (v + 0.37) / setup.eval_views;
     const Pose T = synth_camera_pose(setup.scene, SynthTrajectory::kOrbit, 1, t);
     const PointMaps maps = render_exact(scene, k, T);
     for (int y = setup.eval_step_px / 2; y < k.height; y += setup.eval_step_px)
@@ -96,8 +98,8 @@ std::map<AoKey, AoScore> measure_ao_accuracy(const AoEvalSetup& setup,
   for (const AoConfig& c : configs) grids.emplace(AoKey{c.estimator, c.integration}, MvaoGrid(c));
   Image<float> ao, w;
   for (int f = 0; f < setup.frames; ++f) {
-    const Pose T =
-        synth_camera_pose(setup.scene, SynthTrajectory::kOrbit, 1, period_s * f / setup.frames);
+    const Pose T = synth_camera_pose(setup.scene, SynthTrajectory::kOrbit, 1,
+                                     kOrbitPeriodS * f / setup.frames);
     const PointMaps maps = render_exact(scene, k, T);
     AoEstimator last_estimator = AoEstimator::kPaper;
     bool have = false;
@@ -144,7 +146,6 @@ BorderDeficit measure_border_deficit(const AoEvalSetup& setup, const AoConfig& c
   wide.height += 2 * margin_px;
   wide.cx += margin_px;
   wide.cy += margin_px;
-  const double period_s = 24.0;
 
   // Each evaluated pixel: its surface point, both SSAO values, its region.
   std::vector<EvalPoint> points;
@@ -152,8 +153,8 @@ BorderDeficit measure_border_deficit(const AoEvalSetup& setup, const AoConfig& c
   std::vector<char> near_border;
   Image<float> ao, ao_wide, weight;
   for (int f = 0; f < setup.frames; ++f) {
-    const Pose T =
-        synth_camera_pose(setup.scene, SynthTrajectory::kOrbit, 1, period_s * f / setup.frames);
+    const Pose T = synth_camera_pose(setup.scene, SynthTrajectory::kOrbit, 1,
+                                     kOrbitPeriodS * f / setup.frames);
     const PointMaps maps = render_exact(scene, k, T);
     compute_ssao(maps, config, f, ao, weight);
     compute_ssao(render_exact(scene, wide, T), config, f, ao_wide, weight);

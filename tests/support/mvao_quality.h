@@ -1,6 +1,7 @@
 /// @file mvao_quality.h
 /// @brief Quality of the multi-scan MVAO (Sabbadin et al. 2016 Sec. 5) on synthetic scan sets:
-/// the per-scan SSAO and the MVAO against the ray-traced Eq. 1 reference at the scan points, and
+/// the per-scan SSAO and the MVAO against the ray-traced Eq. 1 reference at the surface points the
+/// scans measured (measured_surface()), and
 /// the smoothness of the MVAO across coverage borders with and without the border weight w_b.
 /// Shared by tests/ao/mvao_quality_test.cpp (small sets with assertions) and the
 /// aoscan-mvao-quality benchmark (the table of BENCHMARKS.md); free of GoogleTest.
@@ -10,9 +11,10 @@
 /// (src/pipeline/scan_set.cpp): a depth camera's frame as 16-bit depth through the preprocessing
 /// (range clip, border outliers) into a pinhole range map; a laser scan as its equirectangular
 /// range map, or as a point cloud rasterised into the 2h x h map of Sec. 7; normals from the
-/// points (compute_scan_normals, as `aoscan scans`), the SSAO with the default AoConfig and a sample pattern
-/// keyed by the scan's name, the border distance (min_edge_ratio 0.01); then integrate_scans with
-/// d_min = ao.d_min_m, d_max = the largest depth of the set's points and t_p = 64 px.
+/// points (compute_scan_normals, as `aoscan scans`), the SSAO with the default AoConfig and a
+/// sample pattern keyed by the scan's name, the border distance (min_edge_ratio 0.01); then
+/// integrate_scans with d_min = ao.d_min_m, d_max = the largest depth of the set's points and t_p =
+/// 64 px.
 #pragma once
 
 #include <cstdint>
@@ -62,7 +64,8 @@ struct QualitySet {
 enum class QualityReference {
   /// The surface the scanner's ray through the point hits first: the sample's own surface point.
   /// Every noise model here moves a point along its ray (the Kinect model also takes the range
-  /// of a ray jittered by 0.5 px), so the pixel's ray still meets the surface the point stands
+  /// of a ray jittered by 0.5 px sigma), so the pixel's ray still meets the surface the point
+  /// stands
   /// for, however large the noise.
   kRayHit,
   /// The scene surface point nearest to the point: where the noise moved the point to. Near a
