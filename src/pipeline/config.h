@@ -19,7 +19,7 @@ namespace aoscan {
 
 /// The stage thread chain.
 struct PipelineConfig {
-  int queue_capacity = 4;  ///< frames buffered between two stages
+  int queue_capacity = 2;  ///< frames buffered between two stages
 
   template <class V>
   void visit(V& v) {

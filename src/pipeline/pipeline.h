@@ -74,7 +74,7 @@ struct PipelineOptions {
   bool strict = false;    ///< a corrupt frame ends the run with exit 3 instead of a counted skip
   /// Frames buffered between two stages, and at the capture edge of a replay without
   /// `--realtime` (blocking). A live input always holds kLiveEdgeCapacity.
-  std::size_t queue_capacity = 4;
+  std::size_t queue_capacity = 2;
   std::function<void(const Progress&)> on_progress;  ///< called by the last stage, may be empty
 };
 
