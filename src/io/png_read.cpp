@@ -5,13 +5,19 @@
 /// objects.
 #include "io/png_read.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <csetjmp>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <type_traits>
 #include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <libdeflate.h>
 #include <png.h>
@@ -183,38 +189,141 @@ bool is_letter(unsigned char c) {
   return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
 }
 
+/// Where a row's Paeth unfiltering stands: the left and upper-left byte of each of a pixel's two
+/// bytes, which are two independent chains along the row.
+struct PaethChains {
+  int a[2] = {0, 0};
+  int c[2] = {0, 0};
+};
+
+/// Undoes the Paeth filter of the 16-bit pixel at byte `i` of `row` in place, `up` the unfiltered
+/// row above.
+inline void unpaeth_pixel(unsigned char* row, const unsigned char* up, std::size_t i,
+                          PaethChains& s) {
+  for (int k = 0; k < 2; ++k) {
+    const int b = up[i + k];
+    const int pa = std::abs(b - s.c[k]), pb = std::abs(s.a[k] - s.c[k]),
+              pc = std::abs(s.a[k] + b - 2 * s.c[k]);
+    const int predictor = (pa <= pb && pa <= pc) ? s.a[k] : (pb <= pc ? b : s.c[k]);
+    s.a[k] = (row[i + k] + predictor) & 0xFF;
+    row[i + k] = static_cast<unsigned char>(s.a[k]);
+    s.c[k] = b;
+  }
+}
+
+#if defined(__SSE2__)
+/// Most rows RedKitchen's depth PNGs hold are Paeth rows: up to this many consecutive ones are
+/// unfiltered together.
+constexpr int kPaethRows = 4;
+
+/// Undoes the Paeth filter of `n` (2 to kPaethRows) consecutive rows (`first`, the next one
+/// `stride` bytes further, ...) in place, `prev` the unfiltered row above the first: the same
+/// bytes as unfilter_row() on each row in turn. A row's Paeth bytes form two chains along it
+/// (a pixel's high and low byte), each waiting on its own last result; here the rows go along
+/// together, each one pixel behind the row above it, so that a step's 2 n chains are the lanes of
+/// one vector: lane (j, k) holds byte k of row j's pixel x - j at step x. Its pixel above is what
+/// lane (j - 1, k) found at the step before (a shift of the lanes; the first row reads `prev`),
+/// its upper-left the pixel above of the step before. A lane before its row's first pixel keeps
+/// zeros (left and upper-left of a row's first pixel are 0), one past its row's end is neither
+/// read nor written.
+void unpaeth_rows(unsigned char* first, std::size_t stride, int n, const unsigned char* prev,
+                  std::size_t bytes) {
+  const long w = static_cast<long>(bytes / 2);
+  const __m128i zero = _mm_setzero_si128(), low_byte = _mm_set1_epi16(0xFF);
+  const auto abs16 = [&](__m128i v) { return _mm_max_epi16(v, _mm_sub_epi16(zero, v)); };
+  const auto select = [](__m128i mask, __m128i if_set, __m128i if_clear) {
+    return _mm_or_si128(_mm_and_si128(mask, if_set), _mm_andnot_si128(mask, if_clear));
+  };
+  const auto pair = [](const unsigned char* p) { return p[0] | (p[1] << 8); };
+  __m128i a = zero, above_before = zero;  // per lane: the left byte; the pixel above last step
+  // One step; `edge`: some row has no pixel x - j (the first and last n - 1 steps).
+  const auto step = [&](long x, auto edge) {
+    const auto has_pixel = [&](int j) {
+      return !decltype(edge)::value || (x - j >= 0 && x - j < w);
+    };
+    __m128i raw = zero, above_first = zero;  // eight bytes in the low half, widened below
+    if (has_pixel(0)) above_first = _mm_insert_epi16(zero, pair(prev + 2 * x), 0);
+    const auto in = [&](int j) {
+      return pair(first + static_cast<std::size_t>(j) * stride + 2 * (x - j));
+    };
+    if (has_pixel(0)) raw = _mm_insert_epi16(raw, in(0), 0);
+    if (has_pixel(1)) raw = _mm_insert_epi16(raw, in(1), 1);
+    if (n > 2 && has_pixel(2)) raw = _mm_insert_epi16(raw, in(2), 2);
+    if (n > 3 && has_pixel(3)) raw = _mm_insert_epi16(raw, in(3), 3);
+    raw = _mm_unpacklo_epi8(raw, zero);
+    const __m128i b = _mm_or_si128(_mm_slli_si128(a, 4), _mm_unpacklo_epi8(above_first, zero));
+    const __m128i c = above_before;
+    const __m128i bc = _mm_sub_epi16(b, c), ac = _mm_sub_epi16(a, c);
+    const __m128i pa = abs16(bc), pb = abs16(ac), pc = abs16(_mm_add_epi16(bc, ac));
+    const __m128i not_a = _mm_or_si128(_mm_cmpgt_epi16(pa, pb), _mm_cmpgt_epi16(pa, pc));
+    const __m128i predictor = select(not_a, select(_mm_cmpgt_epi16(pb, pc), c, b), a);
+    a = _mm_and_si128(_mm_add_epi16(raw, predictor), low_byte);
+    above_before = b;
+    const __m128i bytes8 = _mm_packus_epi16(a, a);
+    const auto out = [&](int j, int v) {
+      unsigned char* o = first + static_cast<std::size_t>(j) * stride + 2 * (x - j);
+      o[0] = static_cast<unsigned char>(v & 0xFF);
+      o[1] = static_cast<unsigned char>(v >> 8);
+    };
+    if (has_pixel(0)) out(0, _mm_extract_epi16(bytes8, 0));
+    if (has_pixel(1)) out(1, _mm_extract_epi16(bytes8, 1));
+    if (n > 2 && has_pixel(2)) out(2, _mm_extract_epi16(bytes8, 2));
+    if (n > 3 && has_pixel(3)) out(3, _mm_extract_epi16(bytes8, 3));
+  };
+  const long inner_end = std::max<long>(n - 1, w);
+  long x = 0;
+  for (; x < n - 1; ++x) step(x, std::true_type{});
+  for (; x < inner_end; ++x) step(x, std::false_type{});
+  for (; x < w + n - 1; ++x) step(x, std::true_type{});
+}
+#endif
+
 /// Undoes the PNG filter of one row of 16-bit grey pixels (2 bytes a pixel) in place; `prev` is
 /// the unfiltered row above (zeros for the first row). False for an unknown filter type.
 bool unfilter_row(int type, unsigned char* row, const unsigned char* prev, std::size_t bytes) {
   switch (type) {
     case 0:
       return true;
-    case 1:  // Sub
-      for (std::size_t i = 2; i < bytes; ++i)
-        row[i] = static_cast<unsigned char>(row[i] + row[i - 2]);
+    case 1: {  // Sub: a running sum of the pixels, bytewise
+      std::size_t i = 2;
+#if defined(__SSE2__)
+      // Eight pixels at a time: their prefix sum in three shifted adds, plus the last pixel
+      // before them in every lane.
+      __m128i carry = _mm_setzero_si128();
+      for (i = 0; i + 16 <= bytes; i += 16) {
+        __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + i));
+        v = _mm_add_epi8(v, _mm_slli_si128(v, 2));
+        v = _mm_add_epi8(v, _mm_slli_si128(v, 4));
+        v = _mm_add_epi8(v, _mm_slli_si128(v, 8));
+        v = _mm_add_epi8(v, carry);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(row + i), v);
+        carry = _mm_shuffle_epi32(_mm_shufflehi_epi16(v, 0xFF), 0xFF);
+      }
+      i = std::max<std::size_t>(i, 2);
+#endif
+      for (; i < bytes; ++i) row[i] = static_cast<unsigned char>(row[i] + row[i - 2]);
       return true;
-    case 2:  // Up
-      for (std::size_t i = 0; i < bytes; ++i) row[i] = static_cast<unsigned char>(row[i] + prev[i]);
+    }
+    case 2: {  // Up
+      std::size_t i = 0;
+#if defined(__SSE2__)
+      for (; i + 16 <= bytes; i += 16)
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(row + i),
+                         _mm_add_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(row + i)),
+                                      _mm_loadu_si128(reinterpret_cast<const __m128i*>(prev + i))));
+#endif
+      for (; i < bytes; ++i) row[i] = static_cast<unsigned char>(row[i] + prev[i]);
       return true;
+    }
     case 3:  // Average
       for (std::size_t i = 0; i < bytes; ++i) {
         const unsigned left = i >= 2 ? row[i - 2] : 0u;
         row[i] = static_cast<unsigned char>(row[i] + ((left + prev[i]) >> 1));
       }
       return true;
-    case 4: {  // Paeth: the two bytes of a pixel are two independent chains
-      int a[2] = {0, 0}, c[2] = {0, 0};  // left and upper-left of each byte
-      for (std::size_t i = 0; i < bytes; i += 2) {
-        for (int k = 0; k < 2; ++k) {
-          const int b = prev[i + k];
-          const int pa = std::abs(b - c[k]), pb = std::abs(a[k] - c[k]),
-                    pc = std::abs(a[k] + b - 2 * c[k]);
-          const int predictor = (pa <= pb && pa <= pc) ? a[k] : (pb <= pc ? b : c[k]);
-          a[k] = (row[i + k] + predictor) & 0xFF;
-          row[i + k] = static_cast<unsigned char>(a[k]);
-          c[k] = b;
-        }
-      }
+    case 4: {  // Paeth
+      PaethChains chains;
+      for (std::size_t i = 0; i < bytes; i += 2) unpaeth_pixel(row, prev, i, chains);
       return true;
     }
     default:
@@ -301,13 +410,26 @@ bool decode_grey16_png_common(const std::vector<unsigned char>& bytes, Image<std
   thread_local std::vector<unsigned char> zeros;
   if (zeros.size() < row_bytes) zeros.assign(row_bytes, 0);
   const unsigned char* prev = zeros.data();
-  for (int y = 0; y < h; ++y) {
-    unsigned char* row = rows.data() + static_cast<std::size_t>(y) * (row_bytes + 1);
-    if (!unfilter_row(row[0], row + 1, prev, row_bytes)) return false;
-    std::uint16_t* dst = out.row(y);
-    for (int x = 0; x < w; ++x)  // big-endian samples
-      dst[x] = static_cast<std::uint16_t>((row[1 + 2 * x] << 8) | row[2 + 2 * x]);
-    prev = row + 1;
+  const std::size_t stride = row_bytes + 1;
+  const auto row_at = [&](int y) { return rows.data() + static_cast<std::size_t>(y) * stride; };
+  for (int y = 0; y < h;) {
+    int done = 1;
+#if defined(__SSE2__)
+    while (done < kPaethRows && y + done < h && row_at(y)[0] == 4 && row_at(y + done)[0] == 4)
+      ++done;
+    if (done > 1)
+      unpaeth_rows(row_at(y) + 1, stride, done, prev, row_bytes);
+    else
+#endif
+        if (!unfilter_row(row_at(y)[0], row_at(y) + 1, prev, row_bytes))
+      return false;
+    for (int j = 0; j < done; ++j, ++y) {
+      const unsigned char* row = row_at(y);
+      std::uint16_t* dst = out.row(y);
+      for (int x = 0; x < w; ++x)  // big-endian samples
+        dst[x] = static_cast<std::uint16_t>((row[1 + 2 * x] << 8) | row[2 + 2 * x]);
+      prev = row + 1;
+    }
   }
   return true;
 }

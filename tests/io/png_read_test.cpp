@@ -140,7 +140,9 @@ TEST(PngRead, TheCommonPathDecodesEveryFilterAsLibpngDoes) {
   testing::ScratchDir dir;
   const int filters[] = {PNG_FILTER_NONE, PNG_FILTER_SUB,   PNG_FILTER_UP,
                          PNG_FILTER_AVG,  PNG_FILTER_PAETH, PNG_ALL_FILTERS};
-  const int sizes[][2] = {{1, 1}, {1, 7}, {5, 3}, {33, 17}, {640, 48}};
+  // Heights and widths around the Paeth rows that the common path unfilters together (up to
+  // four, each one pixel behind the one above): runs of 2, 3 and 4 rows, rows narrower than that.
+  const int sizes[][2] = {{1, 1}, {1, 7}, {2, 2}, {3, 6}, {4, 5}, {5, 3}, {33, 17}, {640, 48}};
   int files = 0;
   for (const int filter : filters)
     for (const auto& size : sizes)
