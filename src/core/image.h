@@ -26,6 +26,11 @@ class Image {
     height_ = height;
     data_.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), fill);
   }
+  /// resize() for an output whose every pixel is written next: when the image has this size
+  /// already its pixels are left as they are (no pass over them), else they are set to `fill`.
+  void resize_for_overwrite(int width, int height, const T& fill = T{}) {
+    if (width != width_ || height != height_) resize(width, height, fill);
+  }
   void fill(const T& value) { data_.assign(data_.size(), value); }
 
   int width() const { return width_; }

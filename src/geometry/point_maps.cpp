@@ -26,13 +26,6 @@ using point_maps_detail::points_row_avx2;
 // The fast paths read vertex and normal maps as packed x, y, z floats.
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be three packed floats");
 
-/// Gives `image` the size w x h; its pixels are left as they are when it has that size already
-/// (for outputs whose every pixel is written next).
-template <class T>
-void size_for_overwrite(Image<T>& image, int w, int h, const T& fill) {
-  if (image.width() != w || image.height() != h) image.resize(w, h, fill);
-}
-
 /// Ray factor (x - cx) / fx of every column, as Intrinsics::unproject(float, float, float) and
 /// compute_vertex_map() compute it.
 void column_factors(const Intrinsics& intrinsics, int width, std::vector<float>& out) {
@@ -53,7 +46,7 @@ float row_factor(const Intrinsics& intrinsics, int y) {
 void downsample_depth(const Image<float>& depth_m, float max_depth_diff_m, Image<float>& out) {
   const int w = depth_m.width() / 2;
   const int h = depth_m.height() / 2;
-  size_for_overwrite(out, w, h, 0.0f);
+  out.resize_for_overwrite(w, h, 0.0f);
   // The reference depth always counts itself, so the average below never divides by zero.
   max_depth_diff_m = std::max(max_depth_diff_m, 0.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
@@ -150,8 +143,8 @@ void compute_point_maps(const Image<float>& depth_m, const Intrinsics& intrinsic
   const int w = depth_m.width();
   const int h = depth_m.height();
   maps.intrinsics = intrinsics;
-  size_for_overwrite(maps.vertices, w, h, Eigen::Vector3f::Zero().eval());
-  size_for_overwrite(maps.normals, w, h, Eigen::Vector3f::Zero().eval());
+  maps.vertices.resize_for_overwrite(w, h, Eigen::Vector3f::Zero().eval());
+  maps.normals.resize_for_overwrite(w, h, Eigen::Vector3f::Zero().eval());
   thread_local std::vector<float> column_factor;
   column_factors(intrinsics, w, column_factor);
   const float* cf = column_factor.data();

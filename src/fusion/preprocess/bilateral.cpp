@@ -27,13 +27,6 @@ using bilateral_detail::kLn2Hi;
 using bilateral_detail::kLn2Lo;
 using bilateral_detail::kLog2e;
 
-/// Gives `image` the size w x h; its pixels are left as they are when it has that size already
-/// (for outputs whose every pixel is written next).
-template <class T>
-void size_for_overwrite(Image<T>& image, int w, int h, const T& fill) {
-  if (image.width() != w || image.height() != h) image.resize(w, h, fill);
-}
-
 #if defined(__SSE2__)
 /// exp_nonpositive() on four lanes with SSE2 (bit-identical to the scalar function).
 inline __m128 exp_nonpositive4(__m128 x) {
@@ -139,7 +132,7 @@ void bilateral_filter(const Image<float>& depth_m, const PreprocessConfig& confi
       out = depth_m;
       return;
     }
-    size_for_overwrite(out, depth_m.width(), depth_m.height(), 0.0f);
+    out.resize_for_overwrite(depth_m.width(), depth_m.height(), 0.0f);
     tbb::parallel_for(tbb::blocked_range<int>(0, depth_m.height(), 8),
                       [&](const tbb::blocked_range<int>& rows) {
                         bilateral_detail::filter_rows_avx2(depth_m, rows.begin(), rows.end(), p,

@@ -85,7 +85,7 @@ void depth_to_metres(const DepthFrame& frame, const PreprocessConfig& config,
   const MetresConverter convert(frame, config);
   const int w = frame.depth.width();
   const int h = frame.depth.height();
-  depth_m.resize(w, h);
+  depth_m.resize_for_overwrite(w, h);
   for (int y = 0; y < h; ++y) convert.row(frame.depth.row(y), w, depth_m.row(y));
 }
 
@@ -99,7 +99,7 @@ void remove_border_outliers_rows(const Image<float>& depth_m, float threshold_m,
     out = depth_m;
     return;
   }
-  out.resize(w, h);
+  out.resize_for_overwrite(w, h);
   for (int y = 0; y < h; ++y) {
     const float* mid = depth_m.row(y);
     const float* up = y > 0 ? depth_m.row(y - 1) : mid;
@@ -134,8 +134,8 @@ void preprocess_depth(const DepthFrame& frame, const PreprocessConfig& config, I
   const MetresConverter convert(frame, config);
   const int w = frame.depth.width();
   const int h = frame.depth.height();
-  out.resize(w, h);
-  if (two) tracking_out->resize(w, h);
+  out.resize_for_overwrite(w, h);
+  if (two) tracking_out->resize_for_overwrite(w, h);
   if (w == 0 || h == 0) return;
   // Three converted rows in a ring: row y lives at slot y % 3.
   thread_local std::vector<float> ring;
