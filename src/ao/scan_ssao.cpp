@@ -226,6 +226,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
             area(x, y) = area_factor(map.points(x, y), map.normals(x, y), area_min_cos);
     });
   }
+  const Image<float>* area_or_null = area.empty() ? nullptr : &area;
   Image<float> raw(w, h, 1.0f);
   const bool wrap = map.camera.wraps();
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -235,8 +236,7 @@ void compute_scan_ssao(const RangeMap& map, const AoConfig& config, std::uint64_
       const ScanCamera::SphereRow* row = wrap ? &sphere : nullptr;
       for (int x = 0; x < w; ++x)
         raw(x, y) = (kind(x, y) & kNormal) != 0
-                        ? pixel_ao(map, offset_m, kind, area.empty() ? nullptr : &area, config,
-                                   pattern, x, y, row)
+                        ? pixel_ao(map, offset_m, kind, area_or_null, config, pattern, x, y, row)
                         : 1.0f;
     }
   });

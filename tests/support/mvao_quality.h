@@ -1,8 +1,8 @@
 /// @file mvao_quality.h
 /// @brief Quality of the multi-scan MVAO (Sabbadin et al. 2016 Sec. 5) on synthetic scan sets:
 /// the per-scan SSAO and the MVAO against the ray-traced Eq. 1 reference at the surface points the
-/// scans measured (measured_surface()), and
-/// the smoothness of the MVAO across coverage borders with and without the border weight w_b.
+/// scans measured (measured_surface()), and the smoothness of the MVAO across coverage borders
+/// with and without the border weight w_b.
 /// Shared by tests/ao/mvao_quality_test.cpp (small sets with assertions) and the
 /// aoscan-mvao-quality benchmark (the table of BENCHMARKS.md); free of GoogleTest.
 ///
@@ -65,8 +65,7 @@ enum class QualityReference {
   /// The surface the scanner's ray through the point hits first: the sample's own surface point.
   /// Every noise model here moves a point along its ray (the Kinect model also takes the range
   /// of a ray jittered by 0.5 px sigma), so the pixel's ray still meets the surface the point
-  /// stands
-  /// for, however large the noise.
+  /// stands for, however large the noise.
   kRayHit,
   /// The scene surface point nearest to the point: where the noise moved the point to. Near a
   /// crease or at a grazing angle this is another surface point than the measured one, farther
