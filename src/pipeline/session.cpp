@@ -440,6 +440,10 @@ double peak_rss_mb() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
+void want_configured_colour(Source& source, const Config& config) {
+  source.want_colour(config.fusion.colour == ColourFusion::kOn, config.fusion.colour_every);
+}
+
 nlohmann::json SessionStats::to_json() const {
   return {{"threads", threads},
           {"export_s", export_s},
@@ -490,8 +494,7 @@ SessionResult run_session(Source& source, const RunOptions& options,
     spdlog::warn("{}", warning);
   SessionResult result;
   result.calibration = report_calibration(source);
-  source.want_colour(options.config.fusion.colour == ColourFusion::kOn,
-                     options.config.fusion.colour_every);
+  want_configured_colour(source, options.config);
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   result.session.threads = options.threads > 0 ? std::min(options.threads, cores) : cores;
   if (options.threads > cores)

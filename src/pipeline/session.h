@@ -117,4 +117,8 @@ SessionResult run_session(Source& source, const RunOptions& options,
 /// Peak resident set size of this process so far (MB).
 double peak_rss_mb();
 
+/// Hands the colour choice of `config` (fusion.colour, fusion.colour_every) to `source` before
+/// its first read, so that colour a run does not fuse is not decoded either.
+void want_configured_colour(Source& source, const Config& config);
+
 }  // namespace aoscan

@@ -90,6 +90,7 @@ int run_serial(const BenchRun& run) {
     }
     FrameWork frame;
     std::unique_ptr<Source> source = open_source(spec);
+    want_configured_colour(*source, run.config);
     const auto start = Clock::now();
     for (std::size_t i = 0; !run.max_frames || i < *run.max_frames; ++i) {
       auto t0 = Clock::now();
@@ -129,6 +130,7 @@ int run_chain(const BenchRun& run) {
   std::size_t frames = 0, lost = 0;
   for (int r = 0; r < run.repeat; ++r) {
     std::unique_ptr<Source> source = open_source(spec);
+    want_configured_colour(*source, run.config);
     PipelineOptions options;
     options.max_frames = run.max_frames;
     options.queue_capacity = static_cast<std::size_t>(run.config.pipeline.queue_capacity);
