@@ -23,7 +23,9 @@ namespace {
 void copy_model_but_normals(const PointMaps& in, PointMaps& out) {
   out.intrinsics = in.intrinsics;
   out.vertices = in.vertices;
-  out.normals.resize(in.vertices.width(), in.vertices.height(), Eigen::Vector3f::Zero());
+  // Every pixel's normal is written by smooth_model_normals().
+  out.normals.resize_for_overwrite(in.vertices.width(), in.vertices.height(),
+                                   Eigen::Vector3f::Zero());
 }
 
 }  // namespace

@@ -86,7 +86,7 @@ void compute_vertex_map(const Image<float>& depth_m, const Intrinsics& intrinsic
                         Image<Eigen::Vector3f>& vertices) {
   const int w = depth_m.width();
   const int h = depth_m.height();
-  vertices.resize(w, h, Eigen::Vector3f::Zero());
+  vertices.resize_for_overwrite(w, h, Eigen::Vector3f::Zero());  // every pixel is written
   // The same per-pixel ray factors as Intrinsics::unproject(float, float, float).
   thread_local std::vector<float> column_factor;
   column_factor.resize(static_cast<std::size_t>(w));

@@ -184,8 +184,8 @@ void downsample_model(const PointMaps& in, PointMaps& out) {
   out.intrinsics = in.intrinsics.scaled(1);
   const int w = in.vertices.width() / 2;
   const int h = in.vertices.height() / 2;
-  out.vertices.resize(w, h, Eigen::Vector3f::Zero());
-  out.normals.resize(w, h, Eigen::Vector3f::Zero());
+  out.vertices.resize_for_overwrite(w, h, Eigen::Vector3f::Zero());  // every pixel is written
+  out.normals.resize_for_overwrite(w, h, Eigen::Vector3f::Zero());
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       out.vertices(x, y) = in.vertices(2 * x, 2 * y);
