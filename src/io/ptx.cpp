@@ -19,9 +19,10 @@ class LineReader {
     if (!in_) throw input_error(path + ": cannot open PTX file");
   }
 
-  /// Reads the next non-empty line into `values` (between min_count and max_count numbers);
-  /// false at the end of the file.
-  bool next(std::vector<double>& values, std::size_t min_count, std::size_t max_count) {
+  /// Reads the next non-empty line into `values` (between min_count and max_count numbers, each
+  /// finite unless `any_number`, where nan and inf parse too); false at the end of the file.
+  bool next(std::vector<double>& values, std::size_t min_count, std::size_t max_count,
+            bool any_number = false) {
     std::string line;
     while (std::getline(in_, line)) {
       ++line_number_;
@@ -33,7 +34,7 @@ class LineReader {
         if (p == end) break;
         double v = 0.0;
         const auto r = std::from_chars(p, end, v);
-        if (r.ec != std::errc() || !std::isfinite(v)) fail("not a number");
+        if (r.ec != std::errc() || !(any_number || std::isfinite(v))) fail("not a number");
         values.push_back(v);
         p = r.ptr;
       }
@@ -97,7 +98,9 @@ std::size_t read_ptx(const std::string& path, const std::function<void(PtxScan&&
     scan.T_world_scanner = registration(m, reader);
     const long long cells = static_cast<long long>(scan.columns) * scan.rows;
     for (long long i = 0; i < cells; ++i) {
-      if (!reader.next(v, 4, 7))
+      // A point's numbers may be nan or inf (what some exporters write for a cell without a
+      // return): the point is kept as read, and the rasteriser skips and counts it.
+      if (!reader.next(v, 4, 7, true))
         reader.fail("the file ends after " + std::to_string(i) + " of the scan's " +
                     std::to_string(cells) + " points");
       if (v.size() == 5 || v.size() == 6) reader.fail("a point is x y z intensity [r g b]");

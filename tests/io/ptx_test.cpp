@@ -2,6 +2,7 @@
 // scanners and of MeshLab, with exact registrations and one-line errors.
 #include "io/ptx.h"
 
+#include <cmath>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -50,6 +51,22 @@ TEST(Ptx, ReadsEveryScanWithItsRegistrationAndSkipsMissingPoints) {
   EXPECT_EQ(scans[1].points.size(), 1u);
 }
 
+TEST(Ptx, APointThatIsNotFiniteIsKeptAsReadForTheRasteriserToSkip) {
+  ScratchDir dir;
+  write_text(dir.file("s.ptx"),
+             header(2, 2) + "nan nan nan 0.5\n1 0 0 0.5\n0 inf 0 0.5\n-INF 2 NaN nan\n");
+  const std::vector<PtxScan> scans = read_ptx(dir.file("s.ptx"));
+  ASSERT_EQ(scans.size(), 1u);
+  EXPECT_EQ(scans[0].missing, 0);
+  ASSERT_EQ(scans[0].points.size(), 4u);
+  EXPECT_TRUE(std::isnan(scans[0].points[0].x()));
+  EXPECT_EQ(scans[0].points[1], Eigen::Vector3f(1, 0, 0));
+  EXPECT_TRUE(std::isinf(scans[0].points[2].y()));
+  EXPECT_TRUE(std::isinf(scans[0].points[3].x()) && scans[0].points[3].x() < 0.0f);
+  EXPECT_EQ(scans[0].points[3].y(), 2.0f);
+  EXPECT_TRUE(std::isnan(scans[0].points[3].z()));
+}
+
 TEST(Ptx, BadFilesAreOneLineErrorsWithTheLine) {
   ScratchDir dir;
   const struct {
@@ -60,6 +77,10 @@ TEST(Ptx, BadFilesAreOneLineErrorsWithTheLine) {
       {"2\n", "ends inside a scan header"},
       {"0\n3\n", "two positive whole numbers"},
       {header(1, 1) + "1 2 x 4\n", ":11: not a number"},
+      {"1\nnan\n", ":2: not a number"},
+      {"1\n1\n0 0 inf\n", ":3: not a number"},
+      {"1\n1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\nnan 0 0 1\n1 1 1 1\n",
+       ":10: not a number"},
       {header(1, 1) + "1 2 3 4 5\n", "x y z intensity [r g b]"},
       {"1\n1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n1 1 1 1\n",
        "not a rigid transform"},

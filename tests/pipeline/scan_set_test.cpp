@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <unordered_map>
 #include <vector>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -356,6 +357,37 @@ TEST(ScanSet, NonFinitePointsAreSkippedAndCountedAndChangeNothingElse) {
   std::ifstream a(dir.file("out-clean/points.ply"), std::ios::binary);
   std::ifstream b(dir.file("out-dirty/points.ply"), std::ios::binary);
   EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), {}, std::istreambuf_iterator<char>(b)));
+
+  // The same cloud as a PTX scan (scanner frame, registered by a translation to the scanner),
+  // with three lines of nan and inf points in the dirty one.
+  for (const char* name : {"clean", "dirty"}) {
+    const std::size_t good = cloud.vertices.size() - 3;
+    const bool dirty_one = std::string(name) == "dirty";
+    const std::size_t n = dirty_one ? good + 3 : good;
+    std::string ptx = std::to_string(n) + "\n1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" +
+                      "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n";
+    char line[96];
+    for (std::size_t i = 0; i < good; ++i) {
+      const Eigen::Vector3f q = cloud.vertices[i] - Eigen::Vector3f(0, 0, 1);
+      std::snprintf(line, sizeof(line), "%.9g %.9g %.9g 0.5\n", q.x(), q.y(), q.z());
+      ptx += line;
+    }
+    if (dirty_one) ptx += "nan nan nan 0.5\n0 inf 1 0.5\n-inf nan 2 0.5\n";
+    // One file name for both, which names the scan.
+    std::filesystem::create_directories(dir.file(name));
+    write_text(dir.file(std::string(name) + "/s.ptx"), ptx);
+    options.inputs = {dir.file(std::string(name) + "/s.ptx")};
+    options.out_dir = dir.file(std::string("ptx-") + name);
+    run_scans(options);
+  }
+  const nlohmann::json clean_ptx = read_json(dir.file("ptx-clean/stats.json"));
+  const nlohmann::json dirty_ptx = read_json(dir.file("ptx-dirty/stats.json"));
+  EXPECT_EQ(dirty_ptx["per_scan"][0]["points_skipped"].get<long long>(),
+            clean_ptx["per_scan"][0]["points_skipped"].get<long long>() + 3);
+  EXPECT_EQ(dirty_ptx["points"], clean_ptx["points"]);
+  std::ifstream c(dir.file("ptx-clean/points.ply"), std::ios::binary);
+  std::ifstream d(dir.file("ptx-dirty/points.ply"), std::ios::binary);
+  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(c), {}, std::istreambuf_iterator<char>(d)));
 }
 
 }  // namespace
