@@ -36,6 +36,15 @@ constexpr int kRowsPerChunk = 8;
 /// Slots of the per-chunk direct-mapped cache that drops repeated block keys of nearby rays.
 constexpr int kKeyCacheBits = 9;
 
+/// The set bits among the low 8 of `bits`, without a library call (the build's baseline CPU has
+/// no popcnt instruction, and __builtin_popcount then calls libgcc).
+inline int popcount8(unsigned bits) {
+  bits &= 0xFFu;
+  bits -= (bits >> 1) & 0x55u;
+  bits = (bits & 0x33u) + ((bits >> 2) & 0x33u);
+  return static_cast<int>((bits + (bits >> 4)) & 0x0Fu);
+}
+
 bool in_key_range(const Eigen::Vector3i& b) {
   return b.cwiseAbs().maxCoeff() <= TsdfVolume::kMaxBlockCoord;
 }
@@ -162,7 +171,7 @@ int band_keys(const Image<float>& depth_m, int y_begin, int y_end, const Eigen::
       BandLeft left;
       for (; x + 8 <= depth_m.width(); x += 8) {
         const int bits = detail::band_segments_avx2(row, x, rays_of_row, batch, left);
-        rays += __builtin_popcount(bits & 0xFF);
+        rays += popcount8(static_cast<unsigned>(bits));
         // A repeating lane crosses the cells just emitted for the lane to its left, in the same
         // order: segment() would add no key that is not already in `keys`.
         for (int inside = (bits >> 8) & ~(bits >> 16) & 0xFF; inside != 0; inside &= inside - 1) {
