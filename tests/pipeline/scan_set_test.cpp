@@ -7,13 +7,13 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <filesystem>
-#include <unordered_map>
-#include <vector>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <unordered_map>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -325,6 +325,20 @@ TEST(ScanSet, TheMeshOfTheScansLiesOnTheSurfaceAndTakesTheAoOfItsNearestScanPoin
   EXPECT_GE(matched, r.mesh_vertices - r.mesh_vertices_without_ao);
 }
 
+/// The run in `dirty_out` skipped `extra` more points than the one in `clean_out` and wrote the
+/// same points, byte for byte.
+void expect_only_more_skipped(const std::string& clean_out, const std::string& dirty_out,
+                              long long extra) {
+  const nlohmann::json clean = read_json(clean_out + "/stats.json");
+  const nlohmann::json dirty = read_json(dirty_out + "/stats.json");
+  EXPECT_EQ(dirty["per_scan"][0]["points_skipped"].get<long long>(),
+            clean["per_scan"][0]["points_skipped"].get<long long>() + extra);
+  EXPECT_EQ(dirty["points"], clean["points"]);
+  std::ifstream a(clean_out + "/points.ply", std::ios::binary);
+  std::ifstream b(dirty_out + "/points.ply", std::ios::binary);
+  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), {}, std::istreambuf_iterator<char>(b)));
+}
+
 TEST(ScanSet, NonFinitePointsAreSkippedAndCountedAndChangeNothingElse) {
   ScratchDir dir;
   write_laser_cloud(dir.file("clean.ply"), Eigen::Vector3d(1.5, 1.5, 1.2));
@@ -333,6 +347,7 @@ TEST(ScanSet, NonFinitePointsAreSkippedAndCountedAndChangeNothingElse) {
   cloud.quality.clear();
   cloud.colours.clear();
   write_ply(dir.file("clean.ply"), cloud);
+  const std::size_t good = cloud.vertices.size();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
   for (const Eigen::Vector3f& bad : {Eigen::Vector3f(nan, 0, 0), Eigen::Vector3f(0, inf, 1),
@@ -341,53 +356,36 @@ TEST(ScanSet, NonFinitePointsAreSkippedAndCountedAndChangeNothingElse) {
   write_ply(dir.file("dirty.ply"), cloud);
   ScansOptions options;
   options.show_progress = false;
-  for (const char* name : {"clean", "dirty"}) {
-    write_text(dir.file(std::string(name) + ".json"),
-               std::string(R"({"scans": [{"name": "s", "points": ")") + name +
-                   R"(.ply", "scanner": [0, 0, 1]}]})");
-    options.inputs = {dir.file(std::string(name) + ".json")};
-    options.out_dir = dir.file(std::string("out-") + name);
+  for (const std::string name : {"clean", "dirty"}) {
+    write_text(dir.file(name + ".json"), R"({"scans": [{"name": "s", "points": ")" + name +
+                                             R"(.ply", "scanner": [0, 0, 1]}]})");
+    options.inputs = {dir.file(name + ".json")};
+    options.out_dir = dir.file("out-" + name);
     run_scans(options);
   }
-  const nlohmann::json clean = read_json(dir.file("out-clean/stats.json"));
-  const nlohmann::json dirty = read_json(dir.file("out-dirty/stats.json"));
-  EXPECT_EQ(dirty["per_scan"][0]["points_skipped"].get<long long>(),
-            clean["per_scan"][0]["points_skipped"].get<long long>() + 3);
-  EXPECT_EQ(dirty["points"], clean["points"]);
-  std::ifstream a(dir.file("out-clean/points.ply"), std::ios::binary);
-  std::ifstream b(dir.file("out-dirty/points.ply"), std::ios::binary);
-  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), {}, std::istreambuf_iterator<char>(b)));
+  expect_only_more_skipped(dir.file("out-clean"), dir.file("out-dirty"), 3);
 
   // The same cloud as a PTX scan (scanner frame, registered by a translation to the scanner),
   // with three lines of nan and inf points in the dirty one.
-  for (const char* name : {"clean", "dirty"}) {
-    const std::size_t good = cloud.vertices.size() - 3;
-    const bool dirty_one = std::string(name) == "dirty";
-    const std::size_t n = dirty_one ? good + 3 : good;
-    std::string ptx = std::to_string(n) + "\n1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" +
-                      "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n";
+  for (const std::string name : {"clean", "dirty"}) {
+    const bool dirty = name == "dirty";
+    std::string ptx = std::to_string(dirty ? good + 3 : good) +
+                      "\n1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n";
     char line[96];
     for (std::size_t i = 0; i < good; ++i) {
       const Eigen::Vector3f q = cloud.vertices[i] - Eigen::Vector3f(0, 0, 1);
       std::snprintf(line, sizeof(line), "%.9g %.9g %.9g 0.5\n", q.x(), q.y(), q.z());
       ptx += line;
     }
-    if (dirty_one) ptx += "nan nan nan 0.5\n0 inf 1 0.5\n-inf nan 2 0.5\n";
+    if (dirty) ptx += "nan nan nan 0.5\n0 inf 1 0.5\n-inf nan 2 0.5\n";
     // One file name for both, which names the scan.
     std::filesystem::create_directories(dir.file(name));
-    write_text(dir.file(std::string(name) + "/s.ptx"), ptx);
-    options.inputs = {dir.file(std::string(name) + "/s.ptx")};
-    options.out_dir = dir.file(std::string("ptx-") + name);
+    write_text(dir.file(name + "/s.ptx"), ptx);
+    options.inputs = {dir.file(name + "/s.ptx")};
+    options.out_dir = dir.file("ptx-" + name);
     run_scans(options);
   }
-  const nlohmann::json clean_ptx = read_json(dir.file("ptx-clean/stats.json"));
-  const nlohmann::json dirty_ptx = read_json(dir.file("ptx-dirty/stats.json"));
-  EXPECT_EQ(dirty_ptx["per_scan"][0]["points_skipped"].get<long long>(),
-            clean_ptx["per_scan"][0]["points_skipped"].get<long long>() + 3);
-  EXPECT_EQ(dirty_ptx["points"], clean_ptx["points"]);
-  std::ifstream c(dir.file("ptx-clean/points.ply"), std::ios::binary);
-  std::ifstream d(dir.file("ptx-dirty/points.ply"), std::ios::binary);
-  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(c), {}, std::istreambuf_iterator<char>(d)));
+  expect_only_more_skipped(dir.file("ptx-clean"), dir.file("ptx-dirty"), 3);
 }
 
 }  // namespace
