@@ -26,8 +26,8 @@ using point_maps_detail::points_row_avx2;
 // The fast paths read vertex and normal maps as packed x, y, z floats.
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "Vector3f must be three packed floats");
 
-/// Ray factor (x - cx) / fx of every column, as Intrinsics::unproject(float, float, float) and
-/// compute_vertex_map() compute it.
+/// Ray factor (x - cx) / fx of every column, as Intrinsics::unproject(float, float, float)
+/// computes it.
 void column_factors(const Intrinsics& intrinsics, int width, std::vector<float>& out) {
   out.resize(static_cast<std::size_t>(width));
   for (int x = 0; x < width; ++x)
@@ -87,22 +87,17 @@ void compute_vertex_map(const Image<float>& depth_m, const Intrinsics& intrinsic
   const int w = depth_m.width();
   const int h = depth_m.height();
   vertices.resize_for_overwrite(w, h, Eigen::Vector3f::Zero());  // every pixel is written
-  // The same per-pixel ray factors as Intrinsics::unproject(float, float, float).
   thread_local std::vector<float> column_factor;
-  column_factor.resize(static_cast<std::size_t>(w));
-  for (int x = 0; x < w; ++x)
-    column_factor[x] = static_cast<float>(
-        (static_cast<double>(static_cast<float>(x)) - intrinsics.cx) / intrinsics.fx);
+  column_factors(intrinsics, w, column_factor);
   const float* cf = column_factor.data();
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y) {
-      const float row_factor = static_cast<float>(
-          (static_cast<double>(static_cast<float>(y)) - intrinsics.cy) / intrinsics.fy);
+      const float ry = row_factor(intrinsics, y);
       const float* d = depth_m.row(y);
       Eigen::Vector3f* v = vertices.row(y);
       for (int x = 0; x < w; ++x) {
         const float z = d[x];
-        v[x] = z > 0.0f ? Eigen::Vector3f(cf[x] * z, row_factor * z, z) : Eigen::Vector3f::Zero();
+        v[x] = z > 0.0f ? Eigen::Vector3f(cf[x] * z, ry * z, z) : Eigen::Vector3f::Zero();
       }
     }
   });
