@@ -417,12 +417,9 @@ bool decode_grey16_png_common(const std::vector<unsigned char>& bytes, Image<std
 #if defined(__SSE2__)
     while (done < kPaethRows && y + done < h && row_at(y)[0] == 4 && row_at(y + done)[0] == 4)
       ++done;
-    if (done > 1)
-      unpaeth_rows(row_at(y) + 1, stride, done, prev, row_bytes);
-    else
+    if (done > 1) unpaeth_rows(row_at(y) + 1, stride, done, prev, row_bytes);
 #endif
-        if (!unfilter_row(row_at(y)[0], row_at(y) + 1, prev, row_bytes))
-      return false;
+    if (done == 1 && !unfilter_row(row_at(y)[0], row_at(y) + 1, prev, row_bytes)) return false;
     for (int j = 0; j < done; ++j, ++y) {
       const unsigned char* row = row_at(y);
       std::uint16_t* dst = out.row(y);
