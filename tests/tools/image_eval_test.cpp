@@ -350,5 +350,63 @@ TEST(ImageEval, TemporalStabilityWithAFinalGridReadsItAtEachPointAndSplitsOcclud
   EXPECT_EQ(t.result(1).all.cells, 0u);
 }
 
+TEST(ImageEval, TrackedPointsReadTheViewsBilinearlyWhereTheRaycastShowsThem) {
+  // Views of 8 x 6 pixels, the model raycast at level 1 (4 x 3, f 2, cx 1.5, cy 1): a plane at
+  // z = 2 seen from the origin (frame A) and from (0.4, 0, 0) (frame B). Raycast pixel (u, v)
+  // shows world x = (u - 1.5) + camera x, y = v - 1.
+  const Intrinsics k = camera(8, 6, 4, 3.5, 2.5);
+  const Image<float> depth(4, 3, 2.0f);
+  // SSAO 0.5 + 0.1 x at each raycast pixel's world point, replicated over its 2 x 2 view pixels:
+  // linear in x, so read bilinearly at a point it is that point's value in every frame.
+  const auto views = [&](double camera_x, float mvao_value) {
+    std::pair<Image<float>, Image<float>> v{Image<float>(8, 6), Image<float>(8, 6, mvao_value)};
+    for (int y = 0; y < 6; ++y)
+      for (int x = 0; x < 8; ++x)
+        v.first(x, y) = static_cast<float>(0.5 + 0.1 * ((x / 2 - 1.5) + camera_x));
+    return v;
+  };
+  const Pose a, b(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.4, 0, 0));
+  const std::vector<Eigen::Vector3f> points = {
+      {0.1f, 0.05f, 2.0f},   // seen by A at (1.6, 1.05) and by B at (1.2, 1.05)
+      {-1.2f, 0.0f, 2.0f},   // seen by A at (0.3, 1); outside B's raycast
+      {0.1f, 0.05f, 2.5f}};  // behind the plane: seen by neither
+  MvaoGrid grid = half_metre_grid();
+  for (int x = -4; x <= 3; ++x)
+    for (int y = -2; y <= 2; ++y) ASSERT_TRUE(grid.restore_cell({x, y, 4}, {0.7f, 1.0f, 1}));
+  const FinalGrid final_grid(grid);
+  TemporalStability s(1.0);
+  const auto [ssao_a, mvao_a] = views(0.0, 0.6f);
+  const auto [ssao_b, mvao_b] = views(0.4, 0.8f);
+  s.add_tracked(k, a, depth, ssao_a, mvao_a, points, &final_grid);
+  s.add_tracked(k, b, depth, ssao_b, mvao_b, points, &final_grid);
+  // A frame where one of the four raycast pixels around the first point has no surface does not
+  // see it.
+  Image<float> holed = depth;
+  holed(2, 1) = 0.0f;
+  s.add_tracked(k, b, holed, ssao_b, mvao_b, points, &final_grid);
+  EXPECT_EQ(s.frames(), 3u);
+  const TemporalStability::Result two = s.result(2);
+  ASSERT_EQ(two.all.cells, 1u);
+  EXPECT_DOUBLE_EQ(two.all.frames_per_cell_mean, 2.0);
+  // The nearest pixel would read 0.55 in A and 0.49 in B (a spread of 0.03).
+  EXPECT_NEAR(two.all.std_mean[0], 0.0, 1e-6);
+  EXPECT_NEAR(two.all.std_mean[1], 0.1, 1e-6);  // MVAO 0.6, then 0.8
+  EXPECT_NEAR(two.all.std_mean[2], 0.0, 1e-6);  // the final grid, 0.7 wherever it is read
+  EXPECT_EQ(two.occluded.cells, 1u);
+  EXPECT_EQ(s.result(1).all.cells, 2u);
+  EXPECT_EQ(s.result(3).all.cells, 0u);
+  // A pixel whose point has no observed cell in the final grid hides the point.
+  TemporalStability t(1.0);
+  const MvaoGrid empty = half_metre_grid();
+  const FinalGrid unobserved(empty);
+  t.add_tracked(k, a, depth, ssao_a, mvao_a, points, &unobserved);
+  EXPECT_EQ(t.result(1).all.cells, 0u);
+  // Cells and tracked points do not mix in one measure.
+  EXPECT_THROW(s.add(k, a, depth, ssao_a, mvao_a), Error);
+  TemporalStability u(1.0);
+  u.add(k, a, depth, ssao_a, mvao_a);
+  EXPECT_THROW(u.add_tracked(k, a, depth, ssao_a, mvao_a, points), Error);
+}
+
 }  // namespace
 }  // namespace aoscan::eval

@@ -313,9 +313,8 @@ TemporalStability::TemporalStability(double cell_m) : cell_m_(cell_m) {
     throw usage_error("the stability cell size must be a positive number of metres");
 }
 
-void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
-                            const Image<float>& depth_m, const Image<float>& ssao,
-                            const Image<float>& mvao, const FinalGrid* final_grid) {
+int TemporalStability::depth_level(const Intrinsics& k, const Image<float>& depth_m,
+                                   const Image<float>& ssao, const Image<float>& mvao) {
   if (mvao.width() != ssao.width() || mvao.height() != ssao.height() ||
       ssao.width() != k.width || ssao.height() != k.height)
     throw input_error("the snapshot views differ in size from the camera");
@@ -325,11 +324,43 @@ void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
   while (level < 4 && (depth_m.width() << level) < k.width) ++level;
   if ((depth_m.width() << level) != k.width || (depth_m.height() << level) != k.height)
     throw input_error("the depth image is neither the snapshot views' size nor a pyramid level of it");
+  return level;
+}
+
+void TemporalStability::use_keys(Keys keys) {
+  if (keys_ != Keys::kNone && keys_ != keys)
+    throw usage_error("a stability measure takes either cells or tracked points, not both");
+  keys_ = keys;
+}
+
+template <typename FrameMap>
+void TemporalStability::add_frame(const FrameMap& frame) {
+  for (const auto& [key, f] : frame) {
+    Sums& c = cells_[key];
+    ++c.n;
+    for (int i = 0; i < kShownCount; ++i) {
+      const double mean = f.sum[i] / static_cast<double>(f.n);
+      c.sum[i] += mean;
+      c.sum_sq[i] += mean * mean;
+    }
+  }
+  ++frames_;
+}
+
+namespace {
+/// A key's values in one frame: the sum of each shown AO over the frame's pixels of the key.
+struct FrameSums {
+  std::size_t n = 0;
+  std::array<double, kShownCount> sum{};
+};
+}  // namespace
+
+void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
+                            const Image<float>& depth_m, const Image<float>& ssao,
+                            const Image<float>& mvao, const FinalGrid* final_grid) {
+  const int level = depth_level(k, depth_m, ssao, mvao);
+  use_keys(Keys::kCells);
   const Intrinsics kd = k.scaled(level);
-  struct FrameSums {
-    std::size_t n = 0;
-    std::array<double, kShownCount> sum{};
-  };
   std::unordered_map<std::uint64_t, FrameSums> frame;
   FinalDifference difference;
   for (int y = 0; y < kd.height; ++y)
@@ -362,16 +393,51 @@ void TemporalStability::add(const Intrinsics& k, const Pose& T_world_camera,
     }
     final_differences_.push_back(difference);
   }
-  for (const auto& [key, f] : frame) {
-    Sums& c = cells_[key];
-    ++c.n;
-    for (int i = 0; i < kShownCount; ++i) {
-      const double mean = f.sum[i] / static_cast<double>(f.n);
-      c.sum[i] += mean;
-      c.sum_sq[i] += mean * mean;
+  add_frame(frame);
+}
+
+void TemporalStability::add_tracked(const Intrinsics& k, const Pose& T_world_camera,
+                                    const Image<float>& raycast_depth_m, const Image<float>& ssao,
+                                    const Image<float>& mvao,
+                                    const std::vector<Eigen::Vector3f>& points_world,
+                                    const FinalGrid* final_grid) {
+  const int level = depth_level(k, raycast_depth_m, ssao, mvao);
+  use_keys(Keys::kPoints);
+  const Intrinsics kd = k.scaled(level);
+  const Pose T_camera_world = T_world_camera.inverse();
+  std::vector<std::pair<std::uint64_t, FrameSums>> frame;
+  for (std::size_t i = 0; i < points_world.size(); ++i) {
+    const Eigen::Vector3d q = T_camera_world * points_world[i].cast<double>();
+    if (!(q.z() > 0.0)) continue;
+    const Eigen::Vector2d uv = kd.project(q);
+    const double fx = std::floor(uv.x()), fy = std::floor(uv.y());
+    if (!(fx >= 0.0 && fy >= 0.0 && fx + 1.0 < kd.width && fy + 1.0 < kd.height)) continue;
+    const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+    const double ax = uv.x() - fx, ay = uv.y() - fy;
+    FrameSums f;
+    f.n = 1;
+    bool seen = true;
+    for (int c = 0; c < 4 && seen; ++c) {
+      const int x = x0 + (c & 1), y = y0 + (c >> 1);
+      const double w = ((c & 1) ? ax : 1.0 - ax) * ((c >> 1) ? ay : 1.0 - ay);
+      const float z = raycast_depth_m(x, y), s = ssao(x << level, y << level),
+                  m = mvao(x << level, y << level);
+      seen = z > 0.0f && std::abs(z - q.z()) <= kTrackedDepthToleranceM && s >= 0.0f && m >= 0.0f;
+      if (!seen) break;
+      if (final_grid) {
+        const std::optional<float> final_ao =
+            final_grid->ao(T_world_camera * kd.unproject(double(x), double(y), double(z)));
+        seen = final_ao.has_value();
+        if (!seen) break;
+        f.sum[2] += w * *final_ao;
+      }
+      f.sum[0] += w * s;
+      f.sum[1] += w * m;
     }
+    if (seen) frame.emplace_back(i, f);
   }
-  ++frames_;
+  with_final_ = with_final_ || final_grid != nullptr;
+  add_frame(frame);
 }
 
 TemporalStability::Result TemporalStability::result(std::size_t min_frames) const {
@@ -471,7 +537,8 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
 TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                                          const RecordingFrames& recording,
                                          const std::vector<StampedPose>& estimate, double cell_m,
-                                         const FinalGrid* final_grid, bool raycast_points) {
+                                         const FinalGrid* final_grid, bool raycast_points,
+                                         const std::vector<Eigen::Vector3f>* tracked_points) {
   TemporalStability stability(cell_m);
   Image<std::uint16_t> raw;
   Image<float> depth_m;
@@ -480,7 +547,11 @@ TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
     if (!pose) continue;
     std::string path = snapshot_path(snapshot_dir, kRaycastDepthView, sequence);
     double metres_per_unit = 1.0 / kRaycastDepthUnitsPerMetre;
-    const bool raycast = raycast_points && std::filesystem::exists(path);
+    const bool raycast = (raycast_points || tracked_points) && std::filesystem::exists(path);
+    if (tracked_points && !raycast)
+      throw input_error(path +
+                        ": tracked points need the model raycast's depth of every "
+                        "snapshot frame");
     if (!raycast) {
       path = (std::filesystem::path(recording.dir) / recording.depth[sequence].path).string();
       metres_per_unit = 1.0 / recording.camera.depth_scale;
@@ -492,9 +563,13 @@ TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
       depth_m.data()[i] = raw.data()[i] == 0 || raw.data()[i] == 0xFFFF
                               ? 0.0f
                               : static_cast<float>(raw.data()[i] * metres_per_unit);
-    stability.add(recording.camera.intrinsics, *pose, depth_m,
-                  read_shown_ao(snapshot_dir, "ssao", sequence),
-                  read_shown_ao(snapshot_dir, "mvao", sequence), final_grid);
+    const Image<float> ssao = read_shown_ao(snapshot_dir, "ssao", sequence);
+    const Image<float> mvao = read_shown_ao(snapshot_dir, "mvao", sequence);
+    if (tracked_points)
+      stability.add_tracked(recording.camera.intrinsics, *pose, depth_m, ssao, mvao,
+                            *tracked_points, final_grid);
+    else
+      stability.add(recording.camera.intrinsics, *pose, depth_m, ssao, mvao, final_grid);
     if (raycast) stability.count_raycast_points();
   }
   return stability;

@@ -177,6 +177,21 @@ class TemporalStability {
            const Image<float>& ssao, const Image<float>& mvao,
            const FinalGrid* final_grid = nullptr);
 
+  /// The same spread at fixed surface points instead of cells: `points_world` (e.g. the run's mesh
+  /// vertices, in the poses' world frame) keep their index as their key across frames. A frame
+  /// sees a point when the four pixels of `raycast_depth_m` (the model raycast, at the views' size
+  /// or a pyramid level of it, as in add()) around the point's projection all lie within
+  /// kTrackedDepthToleranceM of its depth and show both AOs; the point then gets the bilinear mix
+  /// of the SSAO and the MVAO the views show at those pixels, and (with a final grid) the same mix
+  /// of the final grid's AO at their points, so that an AO field that does not change spreads only
+  /// by that interpolation. A measure takes either add() or add_tracked(): throws usage_error when
+  /// they are mixed, input_error for sizes as add().
+  void add_tracked(const Intrinsics& intrinsics, const Pose& T_world_camera,
+                   const Image<float>& raycast_depth_m, const Image<float>& ssao,
+                   const Image<float>& mvao, const std::vector<Eigen::Vector3f>& points_world,
+                   const FinalGrid* final_grid = nullptr);
+  static constexpr double kTrackedDepthToleranceM = 0.02;
+
   /// Cells whose final-grid AO (mean over their frames) is below this are the occluded ones.
   static constexpr double kOccludedBelow = 0.9;
 
@@ -216,7 +231,17 @@ class TemporalStability {
     std::size_t n = 0;
     std::array<double, kShownCount> sum{}, sum_sq{};
   };
+  /// The raycast pixel level of a depth image for views of `intrinsics`; throws input_error.
+  static int depth_level(const Intrinsics& intrinsics, const Image<float>& depth_m,
+                         const Image<float>& ssao, const Image<float>& mvao);
+  /// Adds one frame's value of each key seen, as the next frame of that key.
+  template <typename FrameMap>
+  void add_frame(const FrameMap& frame);
+  enum class Keys { kNone, kCells, kPoints };
+  void use_keys(Keys keys);
+
   double cell_m_;
+  Keys keys_ = Keys::kNone;
   std::size_t frames_ = 0;
   std::size_t frames_raycast_ = 0;
   bool with_final_ = false;  ///< a final grid was given
@@ -274,11 +299,12 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
 /// mapped by the estimated pose being those the views show, the model raycast's
 /// (`raycast_depth_*.png` of the snapshots), or, for a frame without it or with `raycast_points`
 /// false, the recording's own depth at each pixel (depth.txt's PNG of the frame, depth_scale of
-/// camera.json). Returns the accumulated measure; frames without a pose are skipped.
-TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
-                                         const RecordingFrames& recording,
-                                         const std::vector<StampedPose>& estimate, double cell_m,
-                                         const FinalGrid* final_grid = nullptr,
-                                         bool raycast_points = true);
+/// camera.json). With `tracked_points`, TemporalStability::add_tracked() of those points in every
+/// frame instead, which needs the model raycast's depth of every frame (input_error naming the
+/// first file missing). Returns the accumulated measure; frames without a pose are skipped.
+TemporalStability stability_of_snapshots(
+    const std::string& snapshot_dir, const RecordingFrames& recording,
+    const std::vector<StampedPose>& estimate, double cell_m, const FinalGrid* final_grid = nullptr,
+    bool raycast_points = true, const std::vector<Eigen::Vector3f>* tracked_points = nullptr);
 
 }  // namespace aoscan::eval

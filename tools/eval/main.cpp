@@ -131,8 +131,9 @@ int run(int argc, char** argv) {
   std::size_t min_frames = 10;
   CLI::App* stability = app.add_subcommand(
       "stability",
-      "temporal stability of the AO shown in a replay's snapshot views: per world cell seen in at "
-      "least --min-frames snapshot frames, the standard deviation over those frames of its SSAO "
+      "temporal stability of the AO shown in a replay's snapshot views: per world cell (or tracked "
+      "point, --track) seen in at least --min-frames snapshot frames, the standard deviation over "
+      "those frames of its SSAO "
       "and of its MVAO (surface points: the model raycast's the views show, raycast_depth_*.png, "
       "or the recording's depth, at the estimated poses)");
   stability->add_option("SNAPSHOTS", snapshot_dir, "--snapshot folder (ssao_*.png, mvao_*.png)")
@@ -155,6 +156,14 @@ int run(int argc, char** argv) {
   stability->add_flag("--depth-points", depth_points,
                       "surface points from the recording's depth images even where the snapshots "
                       "have the model raycast's depth (the measure before raycast_depth_*.png)");
+  std::string track_path;
+  stability
+      ->add_option("--track", track_path,
+                   "the spread at fixed surface points instead of cells: the vertices of this "
+                   "PLY (the replay's mesh.ply), each read where the model raycast shows it")
+      ->check(CLI::ExistingFile)
+      ->excludes("--depth-points")
+      ->excludes("--cell");
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -171,20 +180,30 @@ int run(int argc, char** argv) {
           grid.emplace(grid_from_saved(read_grid(grid_path)));
           final_grid.emplace(*grid, view_read);
         }
-        const TemporalStability s =
-            stability_of_snapshots(snapshot_dir, recording, estimate, cell_m,
-                                   final_grid ? &*final_grid : nullptr, !depth_points);
+        std::vector<Eigen::Vector3f> tracked;
+        if (!track_path.empty()) {
+          tracked = read_ply(track_path).vertices;
+          if (tracked.empty()) throw input_error(track_path + ": no vertex to track");
+        }
+        const bool tracking = !tracked.empty();
+        const TemporalStability s = stability_of_snapshots(
+            snapshot_dir, recording, estimate, cell_m, final_grid ? &*final_grid : nullptr,
+            !depth_points, tracking ? &tracked : nullptr);
         const TemporalStability::Result r = s.result(min_frames);
+        const char* unit = tracking ? "points" : "cells";
         nlohmann::json out;
         out["frames"] = s.frames();
         out["frames_with_raycast_points"] = s.frames_with_raycast_points();
         out["frames_with_depth_points"] = s.frames_with_depth_points();
-        out["cell_m"] = cell_m;
+        if (tracking)
+          out["tracked_points"] = tracked.size();
+        else
+          out["cell_m"] = cell_m;
         out["min_frames"] = min_frames;
         const auto spread_json = [&](const TemporalStability::Spread& sp) {
           nlohmann::json o;
-          o["cells"] = sp.cells;
-          o["frames_per_cell_mean"] = sp.frames_per_cell_mean;
+          o[unit] = sp.cells;
+          o[tracking ? "frames_per_point_mean" : "frames_per_cell_mean"] = sp.frames_per_cell_mean;
           for (int k = 0; k < (grid ? kShownCount : 2); ++k) {
             const std::string name = shown_name(static_cast<Shown>(k));
             o[name + "_std_mean"] = sp.std_mean[k];
@@ -192,8 +211,8 @@ int run(int argc, char** argv) {
           }
           return o;
         };
-        out["cells"] = spread_json(r.all);
-        if (grid) out["occluded_cells"] = spread_json(r.occluded);
+        out[unit] = spread_json(r.all);
+        if (grid) out[std::string("occluded_") + unit] = spread_json(r.occluded);
         for (const TemporalStability::FinalDifference& d : s.final_differences())
           out["mvao_minus_final_per_frame"].push_back({{"pixels", d.pixels},
                                                        {"mean_abs", d.mean_abs},
@@ -202,13 +221,20 @@ int run(int argc, char** argv) {
           std::printf("%s\n", out.dump(2).c_str());
           return 0;
         }
-        std::printf("frames              %zu with a pose; cells of %.1f cm seen in >= %zu of them\n",
-                    s.frames(), cell_m * 100, min_frames);
+        if (tracking)
+          std::printf(
+              "frames              %zu with a pose; of %zu tracked points, those seen in "
+              ">= %zu of them\n",
+              s.frames(), tracked.size(), min_frames);
+        else
+          std::printf(
+              "frames              %zu with a pose; cells of %.1f cm seen in >= %zu of them\n",
+              s.frames(), cell_m * 100, min_frames);
         std::printf("surface points      the model raycast's in %zu frames, the recording's depth "
                     "in %zu\n",
                     s.frames_with_raycast_points(), s.frames_with_depth_points());
-        std::printf("%-22s %8s %7s %17s %17s %17s\n", "cells", "count", "frames",
-                    "SSAO std mean/med", "MVAO std mean/med", "final std mean/med");
+        std::printf("%-22s %8s %7s %17s %17s %17s\n", unit, "count", "frames", "SSAO std mean/med",
+                    "MVAO std mean/med", "final std mean/med");
         const auto row = [&](const char* name, const TemporalStability::Spread& sp) {
           std::printf("%-22s %8zu %7.1f %8.4f/%8.4f %8.4f/%8.4f", name, sp.cells,
                       sp.frames_per_cell_mean, sp.std_mean[0], sp.std_median[0], sp.std_mean[1],
