@@ -408,5 +408,24 @@ TEST(ImageEval, TrackedPointsReadTheViewsBilinearlyWhereTheRaycastShowsThem) {
   EXPECT_THROW(u.add_tracked(k, a, depth, ssao_a, mvao_a, points), Error);
 }
 
+TEST(ImageEval, ATrackedPointsViewsSoFarAreTheMeanOfEveryFrameThatSawIt) {
+  // One point straight ahead at 2 m, seen by three frames showing SSAO 0.2, 0.4, 0.9; the second
+  // frame is not measured. The views so far read 0.2, (0.3), 0.5 in turn.
+  const Intrinsics k = camera(8, 6, 4, 3.5, 2.5);
+  const Image<float> depth(4, 3, 2.0f), mvao(8, 6, 0.5f);
+  const std::vector<Eigen::Vector3f> points = {{0.1f, 0.05f, 2.0f}};
+  TemporalStability s(1.0);
+  s.add_tracked(k, Pose(), depth, Image<float>(8, 6, 0.2f), mvao, points);
+  s.add_tracked(k, Pose(), depth, Image<float>(8, 6, 0.4f), mvao, points, nullptr, false);
+  s.add_tracked(k, Pose(), depth, Image<float>(8, 6, 0.9f), mvao, points);
+  EXPECT_EQ(s.frames(), 2u);  // the measured ones
+  const TemporalStability::Spread spread = s.result(2).all;
+  ASSERT_EQ(spread.cells, 1u);
+  EXPECT_DOUBLE_EQ(spread.frames_per_cell_mean, 2.0);
+  EXPECT_NEAR(spread.std_mean[0], 0.35, 1e-6);                               // SSAO 0.2 and 0.9
+  EXPECT_NEAR(spread.std_mean[TemporalStability::kViewsSoFar], 0.15, 1e-6);  // 0.2 and 0.5
+  EXPECT_EQ(spread.std_mean[1], 0.0);
+}
+
 }  // namespace
 }  // namespace aoscan::eval

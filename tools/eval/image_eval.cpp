@@ -338,7 +338,7 @@ void TemporalStability::add_frame(const FrameMap& frame) {
   for (const auto& [key, f] : frame) {
     Sums& c = cells_[key];
     ++c.n;
-    for (int i = 0; i < kShownCount; ++i) {
+    for (int i = 0; i < kValues; ++i) {
       const double mean = f.sum[i] / static_cast<double>(f.n);
       c.sum[i] += mean;
       c.sum_sq[i] += mean * mean;
@@ -348,10 +348,10 @@ void TemporalStability::add_frame(const FrameMap& frame) {
 }
 
 namespace {
-/// A key's values in one frame: the sum of each shown AO over the frame's pixels of the key.
+/// A key's values in one frame: the sum of each value over the frame's pixels of the key.
 struct FrameSums {
   std::size_t n = 0;
-  std::array<double, kShownCount> sum{};
+  std::array<double, TemporalStability::kValues> sum{};
 };
 }  // namespace
 
@@ -400,7 +400,7 @@ void TemporalStability::add_tracked(const Intrinsics& k, const Pose& T_world_cam
                                     const Image<float>& raycast_depth_m, const Image<float>& ssao,
                                     const Image<float>& mvao,
                                     const std::vector<Eigen::Vector3f>& points_world,
-                                    const FinalGrid* final_grid) {
+                                    const FinalGrid* final_grid, bool measured) {
   const int level = depth_level(k, raycast_depth_m, ssao, mvao);
   use_keys(Keys::kPoints);
   const Intrinsics kd = k.scaled(level);
@@ -434,14 +434,19 @@ void TemporalStability::add_tracked(const Intrinsics& k, const Pose& T_world_cam
       f.sum[0] += w * s;
       f.sum[1] += w * m;
     }
-    if (seen) frame.emplace_back(i, f);
+    if (!seen) continue;
+    ViewsSoFar& views = views_so_far_[i];
+    ++views.n;
+    views.sum += f.sum[0];
+    f.sum[kViewsSoFar] = views.sum / static_cast<double>(views.n);
+    if (measured) frame.emplace_back(i, f);
   }
   with_final_ = with_final_ || final_grid != nullptr;
-  add_frame(frame);
+  if (measured) add_frame(frame);
 }
 
 TemporalStability::Result TemporalStability::result(std::size_t min_frames) const {
-  std::array<std::array<std::vector<double>, kShownCount>, 2> stds;  // all, occluded
+  std::array<std::array<std::vector<double>, kValues>, 2> stds;  // all, occluded
   std::array<double, 2> frames{};
   for (const auto& [key, c] : cells_) {
     if (c.n < std::max<std::size_t>(min_frames, 1)) continue;
@@ -450,7 +455,7 @@ TemporalStability::Result TemporalStability::result(std::size_t min_frames) cons
     for (int g = 0; g < 2; ++g) {
       if (g == 1 && !occluded) continue;
       frames[g] += n;
-      for (int i = 0; i < kShownCount; ++i) {
+      for (int i = 0; i < kValues; ++i) {
         const double mean = c.sum[i] / n;
         stds[g][i].push_back(std::sqrt(std::max(0.0, c.sum_sq[i] / n - mean * mean)));
       }
@@ -462,7 +467,7 @@ TemporalStability::Result TemporalStability::result(std::size_t min_frames) cons
     s.cells = stds[g][0].size();
     if (s.cells == 0) continue;
     s.frames_per_cell_mean = frames[g] / static_cast<double>(s.cells);
-    for (int i = 0; i < kShownCount; ++i) {
+    for (int i = 0; i < kValues; ++i) {
       s.std_mean[i] = mean_of(stds[g][i]);
       s.std_median[i] = median_of(stds[g][i]);
     }
@@ -536,19 +541,23 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
 
 TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                                          const RecordingFrames& recording,
-                                         const std::vector<StampedPose>& estimate, double cell_m,
-                                         const FinalGrid* final_grid, bool raycast_points,
-                                         const std::vector<Eigen::Vector3f>* tracked_points) {
-  TemporalStability stability(cell_m);
+                                         const std::vector<StampedPose>& estimate,
+                                         const StabilityOptions& options,
+                                         const FinalGrid* final_grid) {
+  if (options.measure_every == 0) throw usage_error("frames are measured every 1 or more");
+  TemporalStability stability(options.cell_m);
+  const std::vector<Eigen::Vector3f>* tracked = options.tracked_points;
   Image<std::uint16_t> raw;
   Image<float> depth_m;
   for (const std::uint64_t sequence : snapshot_frames(snapshot_dir)) {
+    const bool measured = sequence >= options.measure_from && sequence % options.measure_every == 0;
+    if (!measured && !tracked) continue;
     const std::optional<Pose> pose = frame_pose(recording, estimate, sequence);
     if (!pose) continue;
     std::string path = snapshot_path(snapshot_dir, kRaycastDepthView, sequence);
     double metres_per_unit = 1.0 / kRaycastDepthUnitsPerMetre;
-    const bool raycast = (raycast_points || tracked_points) && std::filesystem::exists(path);
-    if (tracked_points && !raycast)
+    const bool raycast = (options.raycast_points || tracked) && std::filesystem::exists(path);
+    if (tracked && !raycast)
       throw input_error(path +
                         ": tracked points need the model raycast's depth of every "
                         "snapshot frame");
@@ -565,12 +574,12 @@ TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
                               : static_cast<float>(raw.data()[i] * metres_per_unit);
     const Image<float> ssao = read_shown_ao(snapshot_dir, "ssao", sequence);
     const Image<float> mvao = read_shown_ao(snapshot_dir, "mvao", sequence);
-    if (tracked_points)
-      stability.add_tracked(recording.camera.intrinsics, *pose, depth_m, ssao, mvao,
-                            *tracked_points, final_grid);
+    if (tracked)
+      stability.add_tracked(recording.camera.intrinsics, *pose, depth_m, ssao, mvao, *tracked,
+                            final_grid, measured);
     else
       stability.add(recording.camera.intrinsics, *pose, depth_m, ssao, mvao, final_grid);
-    if (raycast) stability.count_raycast_points();
+    if (raycast && measured) stability.count_raycast_points();
   }
   return stability;
 }

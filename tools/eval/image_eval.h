@@ -184,23 +184,30 @@ class TemporalStability {
   /// kTrackedDepthToleranceM of its depth and show both AOs; the point then gets the bilinear mix
   /// of the SSAO and the MVAO the views show at those pixels, and (with a final grid) the same mix
   /// of the final grid's AO at their points, so that an AO field that does not change spreads only
-  /// by that interpolation. A measure takes either add() or add_tracked(): throws usage_error when
-  /// they are mixed, input_error for sizes as add().
+  /// by that interpolation. Each point also keeps the mean of the SSAO of every frame added that
+  /// saw it so far (the views so far: what a merge of exactly those views, unweighted and at the
+  /// point itself, would show); a frame that is not `measured` only adds its SSAO to that mean.
+  /// A measure takes either add() or add_tracked(): throws usage_error when they are mixed,
+  /// input_error for sizes as add().
   void add_tracked(const Intrinsics& intrinsics, const Pose& T_world_camera,
                    const Image<float>& raycast_depth_m, const Image<float>& ssao,
                    const Image<float>& mvao, const std::vector<Eigen::Vector3f>& points_world,
-                   const FinalGrid* final_grid = nullptr);
+                   const FinalGrid* final_grid = nullptr, bool measured = true);
   static constexpr double kTrackedDepthToleranceM = 0.02;
 
   /// Cells whose final-grid AO (mean over their frames) is below this are the occluded ones.
   static constexpr double kOccludedBelow = 0.9;
 
+  /// The values whose spread is measured: the three Shown, then (tracked points only) the mean of
+  /// the SSAO of the views so far.
+  static constexpr int kViewsSoFar = kShownCount;
+  static constexpr int kValues = kShownCount + 1;
   struct Spread {
-    std::size_t cells = 0;  ///< cells seen in at least min_frames frames
+    std::size_t cells = 0;  ///< cells (or tracked points) seen in at least min_frames frames
     double frames_per_cell_mean = 0;
-    /// Per Shown (ssao, mvao, final; final 0 without a grid): mean and median over the cells of
-    /// the standard deviation over frames.
-    std::array<double, kShownCount> std_mean{}, std_median{};
+    /// Per value (ssao, mvao, final, views so far; final 0 without a grid, views so far 0 for
+    /// cells): mean and median over the cells of the standard deviation over frames.
+    std::array<double, kValues> std_mean{}, std_median{};
   };
   struct Result {
     Spread all;
@@ -229,7 +236,12 @@ class TemporalStability {
  private:
   struct Sums {
     std::size_t n = 0;
-    std::array<double, kShownCount> sum{}, sum_sq{};
+    std::array<double, kValues> sum{}, sum_sq{};
+  };
+  /// A tracked point's SSAO over every frame added that saw it.
+  struct ViewsSoFar {
+    std::size_t n = 0;
+    double sum = 0;
   };
   /// The raycast pixel level of a depth image for views of `intrinsics`; throws input_error.
   static int depth_level(const Intrinsics& intrinsics, const Image<float>& depth_m,
@@ -246,6 +258,7 @@ class TemporalStability {
   std::size_t frames_raycast_ = 0;
   bool with_final_ = false;  ///< a final grid was given
   std::unordered_map<std::uint64_t, Sums> cells_;
+  std::unordered_map<std::uint64_t, ViewsSoFar> views_so_far_;
   std::vector<FinalDifference> final_differences_;
 };
 
@@ -295,16 +308,32 @@ ImageEvalReport evaluate_snapshots(const std::string& snapshot_dir,
                                    const Pose& T_scene_world, const AnalyticScene& scene,
                                    const FinalGrid& final_grid, const ImageEvalOptions& options);
 
+/// Which points and frames stability_of_snapshots() measures.
+struct StabilityOptions {
+  double cell_m = 0.01;
+  /// The surface points the views show (the model raycast's depth, raycast_depth_*.png) where a
+  /// frame has it; false: the recording's own depth in every frame.
+  bool raycast_points = true;
+  /// Tracked points instead of cells (TemporalStability::add_tracked()); null: cells.
+  const std::vector<Eigen::Vector3f>* tracked_points = nullptr;
+  /// The frames measured: snapshot frames from `measure_from` on whose number is a multiple of
+  /// `measure_every`. With tracked points the other frames still add their SSAO to each point's
+  /// views so far; with cells they are skipped.
+  std::uint64_t measure_every = 1;
+  std::uint64_t measure_from = 0;
+};
+
 /// TemporalStability over every frame of `snapshot_dir` with an estimated pose, the surface points
 /// mapped by the estimated pose being those the views show, the model raycast's
-/// (`raycast_depth_*.png` of the snapshots), or, for a frame without it or with `raycast_points`
-/// false, the recording's own depth at each pixel (depth.txt's PNG of the frame, depth_scale of
-/// camera.json). With `tracked_points`, TemporalStability::add_tracked() of those points in every
-/// frame instead, which needs the model raycast's depth of every frame (input_error naming the
+/// (`raycast_depth_*.png` of the snapshots), or, for a frame without it or without
+/// `raycast_points`, the recording's own depth at each pixel (depth.txt's PNG of the frame,
+/// depth_scale of camera.json). With `tracked_points`, TemporalStability::add_tracked() of those
+/// points instead, which needs the model raycast's depth of every frame (input_error naming the
 /// first file missing). Returns the accumulated measure; frames without a pose are skipped.
-TemporalStability stability_of_snapshots(
-    const std::string& snapshot_dir, const RecordingFrames& recording,
-    const std::vector<StampedPose>& estimate, double cell_m, const FinalGrid* final_grid = nullptr,
-    bool raycast_points = true, const std::vector<Eigen::Vector3f>* tracked_points = nullptr);
+TemporalStability stability_of_snapshots(const std::string& snapshot_dir,
+                                         const RecordingFrames& recording,
+                                         const std::vector<StampedPose>& estimate,
+                                         const StabilityOptions& options,
+                                         const FinalGrid* final_grid = nullptr);
 
 }  // namespace aoscan::eval

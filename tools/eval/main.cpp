@@ -127,7 +127,7 @@ int run(int argc, char** argv) {
                     "discontinuity region: pixels within this distance of a depth jump (px)")
       ->capture_default_str();
 
-  double cell_m = 0.01;
+  StabilityOptions stability_options;
   std::size_t min_frames = 10;
   CLI::App* stability = app.add_subcommand(
       "stability",
@@ -141,7 +141,8 @@ int run(int argc, char** argv) {
   stability->add_option("--recording", recording_dir, "the replayed recording (camera.json, depth.txt)")
       ->required()->check(CLI::ExistingDirectory);
   stability->add_option("--estimate", est_path, "the replay's trajectory.txt")->required()->check(CLI::ExistingFile);
-  stability->add_option("--cell", cell_m, "world cell size (m)")->check(CLI::PositiveNumber)
+  stability->add_option("--cell", stability_options.cell_m, "world cell size (m)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   stability->add_option("--min-frames", min_frames, "cells seen in fewer frames are left out")
       ->capture_default_str();
@@ -164,6 +165,17 @@ int run(int argc, char** argv) {
       ->check(CLI::ExistingFile)
       ->excludes("--depth-points")
       ->excludes("--cell");
+  stability
+      ->add_option("--every", stability_options.measure_every,
+                   "measure the snapshot frames whose number is a multiple of this; with --track "
+                   "the others still add to each point's mean of the views so far")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  stability
+      ->add_option("--from", stability_options.measure_from,
+                   "measure the snapshot frames from this frame number on (with --track the "
+                   "earlier ones still add to the views so far)")
+      ->capture_default_str();
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -186,9 +198,11 @@ int run(int argc, char** argv) {
           if (tracked.empty()) throw input_error(track_path + ": no vertex to track");
         }
         const bool tracking = !tracked.empty();
-        const TemporalStability s = stability_of_snapshots(
-            snapshot_dir, recording, estimate, cell_m, final_grid ? &*final_grid : nullptr,
-            !depth_points, tracking ? &tracked : nullptr);
+        stability_options.raycast_points = !depth_points;
+        if (tracking) stability_options.tracked_points = &tracked;
+        const TemporalStability s =
+            stability_of_snapshots(snapshot_dir, recording, estimate, stability_options,
+                                   final_grid ? &*final_grid : nullptr);
         const TemporalStability::Result r = s.result(min_frames);
         const char* unit = tracking ? "points" : "cells";
         nlohmann::json out;
@@ -198,8 +212,10 @@ int run(int argc, char** argv) {
         if (tracking)
           out["tracked_points"] = tracked.size();
         else
-          out["cell_m"] = cell_m;
+          out["cell_m"] = stability_options.cell_m;
         out["min_frames"] = min_frames;
+        out["every"] = stability_options.measure_every;
+        out["from"] = stability_options.measure_from;
         const auto spread_json = [&](const TemporalStability::Spread& sp) {
           nlohmann::json o;
           o[unit] = sp.cells;
@@ -208,6 +224,10 @@ int run(int argc, char** argv) {
             const std::string name = shown_name(static_cast<Shown>(k));
             o[name + "_std_mean"] = sp.std_mean[k];
             o[name + "_std_median"] = sp.std_median[k];
+          }
+          if (tracking) {
+            o["views_so_far_std_mean"] = sp.std_mean[TemporalStability::kViewsSoFar];
+            o["views_so_far_std_median"] = sp.std_median[TemporalStability::kViewsSoFar];
           }
           return o;
         };
@@ -229,19 +249,28 @@ int run(int argc, char** argv) {
         else
           std::printf(
               "frames              %zu with a pose; cells of %.1f cm seen in >= %zu of them\n",
-              s.frames(), cell_m * 100, min_frames);
+              s.frames(), stability_options.cell_m * 100, min_frames);
         std::printf("surface points      the model raycast's in %zu frames, the recording's depth "
                     "in %zu\n",
                     s.frames_with_raycast_points(), s.frames_with_depth_points());
-        std::printf("%-22s %8s %7s %17s %17s %17s\n", unit, "count", "frames", "SSAO std mean/med",
-                    "MVAO std mean/med", "final std mean/med");
+        std::printf("%-22s %8s %7s %17s %17s", unit, "count", "frames", "SSAO std mean/med",
+                    "MVAO std mean/med");
+        if (grid) std::printf(" %17s", "final std mean/med");
+        if (tracking) std::printf(" %17s", "views so far");
+        std::printf("\n");
         const auto row = [&](const char* name, const TemporalStability::Spread& sp) {
           std::printf("%-22s %8zu %7.1f %8.4f/%8.4f %8.4f/%8.4f", name, sp.cells,
                       sp.frames_per_cell_mean, sp.std_mean[0], sp.std_median[0], sp.std_mean[1],
                       sp.std_median[1]);
           if (grid) std::printf(" %8.4f/%8.4f", sp.std_mean[2], sp.std_median[2]);
-          std::printf("  (MVAO / SSAO %.3f)\n",
-                      sp.std_mean[0] > 0 ? sp.std_mean[1] / sp.std_mean[0] : 0.0);
+          constexpr int views = TemporalStability::kViewsSoFar;
+          if (tracking) std::printf(" %8.4f/%8.4f", sp.std_mean[views], sp.std_median[views]);
+          const auto ratio = [&](int k) {
+            return sp.std_mean[0] > 0 ? sp.std_mean[k] / sp.std_mean[0] : 0.0;
+          };
+          std::printf("  (MVAO / SSAO %.3f", ratio(1));
+          if (tracking) std::printf(", views so far / SSAO %.3f", ratio(views));
+          std::printf(")\n");
         };
         row("all", r.all);
         if (grid) row("occluded (final < 0.9)", r.occluded);
