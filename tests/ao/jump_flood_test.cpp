@@ -9,9 +9,12 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "ao/jump_flood_kernels.h"
+#include "geometry/simd.h"
 #include "sim/synth_scanner.h"
 #include "sim/synth_scene.h"
 
@@ -81,6 +84,78 @@ TEST(JumpFlood, NoSeedIsInfinitelyFar) {
   Image<float> d;
   jump_flood_distance(Image<std::uint8_t>(5, 4, 0), false, d);
   EXPECT_TRUE(std::isinf(d(2, 2)));
+}
+
+#if AOSCAN_JUMP_FLOOD_X86
+TEST(JumpFlood, TheAvx2InteriorKeepsTheSeedsOfThePortableCode) {
+  if (!cpu_has_avx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable code runs";
+  // Rows of random seeds (a third of the pixels none), near and far from the row, with ties:
+  // seeds on a few columns and rows only, so that equal distances are common.
+  std::mt19937 rng(11);
+  const int width = 203;
+  for (const int k : {1, 2, 7, 64, 100}) {
+    for (const int wrap_width : {0, width}) {
+      for (int trial = 0; trial < 20; ++trial) {
+        std::vector<detail::PackedSeed> rows[3];
+        for (auto& r : rows) {
+          r.resize(width);
+          for (auto& s : r)
+            s = rng() % 3 == 0 ? -1
+                               : detail::pack_seed(static_cast<int>(rng() % 8) * 29,
+                                                   static_cast<int>(rng() % 5) * 50);
+        }
+        detail::FloodRow row{{rows[0].data(), trial % 4 == 0 ? nullptr : rows[1].data(),
+                              trial % 5 == 0 ? nullptr : rows[2].data()},
+                             100,
+                             k,
+                             width,
+                             wrap_width};
+        const int begin = std::min(k, width), end = std::max(begin, width - k);
+        std::vector<detail::PackedSeed> fast(width, -2), portable(width, -2);
+        detail::flood_interior_avx2(row, begin, end, fast.data());
+        detail::flood_interior_portable(row, begin, end, portable.data());
+        ASSERT_EQ(fast, portable) << "k " << k << " wrap " << wrap_width << " trial " << trial;
+      }
+    }
+  }
+}
+#endif
+
+TEST(JumpFlood, TheFieldIsTheSameBitForBitWithAndWithoutSimd) {
+  std::mt19937 rng(5);
+  for (const bool wrap : {false, true}) {
+    Image<std::uint8_t> seeds(301, 157, 0);
+    for (int i = 0; i < 60; ++i) seeds(rng() % 301, rng() % 157) = 1;
+    for (int x = 20; x < 200; ++x) seeds(x, 80) = 1;
+    Image<float> fast, portable;
+    jump_flood_distance(seeds, wrap, fast, true);
+    jump_flood_distance(seeds, wrap, portable, false);
+    for (int y = 0; y < 157; ++y)
+      for (int x = 0; x < 301; ++x) ASSERT_EQ(fast(x, y), portable(x, y)) << x << " " << y;
+  }
+}
+
+TEST(JumpFlood, AnImageWiderThanPackedSeedsReachIsFloodedWithWideSeeds) {
+  // 40 000 x 3 pixels: beyond the 32 767 a side of 32-bit seeds. Seeds on one row give the exact
+  // field (a pixel's nearest seed is the nearest on that row).
+  const int w = 40000, h = 3;
+  const std::vector<int> columns = {5, 17000, 39990};
+  Image<std::uint8_t> seeds(w, h, 0);
+  for (const int x : columns) seeds(x, 1) = 1;
+  for (const bool wrap : {false, true}) {
+    Image<float> d;
+    jump_flood_distance(seeds, wrap, d);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; x += 7) {
+        double exact = std::numeric_limits<double>::infinity();
+        for (const int sx : columns) {
+          double dx = std::abs(x - sx);
+          if (wrap) dx = std::min(dx, w - dx);
+          exact = std::min(exact, std::sqrt(dx * dx + (y - 1) * (y - 1)));
+        }
+        ASSERT_EQ(d(x, y), static_cast<float>(exact)) << x << " " << y << (wrap ? " wrapped" : "");
+      }
+  }
 }
 
 TEST(BorderDistance, ADepthStepAndTheMapsEdgeAreTheBorders) {
