@@ -131,7 +131,7 @@ void flood_pass(const Image<Seed>& in, int k, bool wrap_x, bool simd, Image<Seed
       };
       for (int x = 0; x < interior_begin; ++x) edge_pixel(x);
       if constexpr (packed) {
-        const detail::FloodRow flood{{row[0], row[1], row[2]}, y, k, w, wrap_width};
+        const detail::FloodRow flood{{row[0], row[1], row[2]}, y, k, wrap_width};
 #if AOSCAN_JUMP_FLOOD_X86
         if (avx2)
           detail::flood_interior_avx2(flood, interior_begin, interior_end, row_out);

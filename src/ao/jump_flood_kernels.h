@@ -23,13 +23,12 @@ inline PackedSeed pack_seed(int x, int y) {
 }
 
 /// One output row of a jump flooding pass of step k: the pass's input rows y - k, y and y + k
-/// (null when off the image), each `width` seeds.
+/// (null when off the image).
 struct FloodRow {
   const PackedSeed* rows[3];
   int y = 0;
   int k = 1;
-  int width = 0;
-  int wrap_width = 0;  ///< `width` on an equirectangular map (x distances taken around it), or 0
+  int wrap_width = 0;  ///< the map's width if it wraps (x distances taken around it), or 0
 };
 
 /// out[x] for x in [x_begin, x_end), all of whose columns x - k, x, x + k lie in the image: the

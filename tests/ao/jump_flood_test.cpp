@@ -108,7 +108,6 @@ TEST(JumpFlood, TheAvx2InteriorKeepsTheSeedsOfThePortableCode) {
                               trial % 5 == 0 ? nullptr : rows[2].data()},
                              100,
                              k,
-                             width,
                              wrap_width};
         const int begin = std::min(k, width), end = std::max(begin, width - k);
         std::vector<detail::PackedSeed> fast(width, -2), portable(width, -2);
