@@ -144,7 +144,9 @@ int run(int argc, char** argv) {
   stability->add_option("--cell", stability_options.cell_m, "world cell size (m)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  stability->add_option("--min-frames", min_frames, "cells seen in fewer frames are left out")
+  stability
+      ->add_option("--min-frames", min_frames,
+                   "cells (or tracked points) seen in fewer frames are left out")
       ->capture_default_str();
   stability->add_option("--grid", grid_path,
                         "the replay's final MVAO grid (OUT/session/mvao.grid): also the spread of "
